@@ -1,0 +1,11 @@
+// The subcommands of `kestrel`; each file cmd_<name>.cpp registers one.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace kestrel::cli {
+
+void add_evaluate_command(CLI::App& app);
+void add_render_command(CLI::App& app);
+
+}  // namespace kestrel::cli

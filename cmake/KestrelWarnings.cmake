@@ -1,0 +1,22 @@
+# Compiler flags shared by every Kestrel target: warnings, sanitizers, CPU tuning.
+add_library(kestrel_options INTERFACE)
+target_compile_options(kestrel_options INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align -Wunused
+  -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2)
+if(KESTREL_NATIVE)
+  target_compile_options(kestrel_options INTERFACE -march=native)
+endif()
+if(KESTREL_SANITIZE)
+  target_compile_options(kestrel_options INTERFACE
+    -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  target_link_options(kestrel_options INTERFACE -fsanitize=address,undefined)
+endif()
+
+# kestrel_add_module(NAME SOURCES ... DEPS ...): one static library per part of the system.
+function(kestrel_add_module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(kestrel_${name} STATIC ${ARG_SOURCES})
+  add_library(kestrel::${name} ALIAS kestrel_${name})
+  target_include_directories(kestrel_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include)
+  target_link_libraries(kestrel_${name} PUBLIC ${ARG_DEPS} PRIVATE kestrel_options)
+endfunction()

@@ -1,0 +1,102 @@
+// SO(3) exponential, logarithm and Jacobians with Taylor series near the identity.
+#include "kestrel/geometry/so3.hpp"
+
+#include <cmath>
+
+#include "kestrel/geometry/quaternion.hpp"
+
+namespace kestrel {
+namespace {
+// Below this angle the closed forms lose digits to cancellation; series are exact to
+// double precision there (next term ~ theta^4 / 5040).
+constexpr double kSmallAngle = 1e-4;
+
+Eigen::Quaterniond canonical(const Eigen::Quaterniond& q) {
+  Eigen::Quaterniond out = q.normalized();
+  if (out.w() < 0) out.coeffs() = -out.coeffs();
+  return out;
+}
+}  // namespace
+
+SO3::SO3(const Eigen::Quaterniond& q) : q_(canonical(q)) {}
+
+SO3 SO3::from_matrix(const Eigen::Matrix3d& R) {
+  const quat::Quat q = quat::from_rotation_matrix(R);
+  return SO3(Eigen::Quaterniond(q[0], q[1], q[2], q[3]));
+}
+
+SO3 SO3::exp(const Tangent& omega) {
+  const double theta2 = omega.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  double w = 0.0;
+  double k = 0.0;  // sin(theta/2) / theta
+  if (theta < kSmallAngle) {
+    w = 1.0 - theta2 / 8.0;
+    k = 0.5 - theta2 / 48.0;
+  } else {
+    w = std::cos(0.5 * theta);
+    k = std::sin(0.5 * theta) / theta;
+  }
+  return SO3(Eigen::Quaterniond(w, k * omega.x(), k * omega.y(), k * omega.z()));
+}
+
+SO3::Tangent SO3::log() const {
+  const Eigen::Vector3d v = q_.vec();
+  const double n = v.norm();
+  const double w = q_.w();  // >= 0 by construction
+  // theta = 2 atan2(n, w) is well conditioned everywhere, including theta = pi (w = 0).
+  if (n < kSmallAngle * w) {
+    // 2 atan(n/w)/n = (2/w) (1 - n^2/(3 w^2) + ...)
+    const double r2 = (n * n) / (w * w);
+    return (2.0 / w) * (1.0 - r2 / 3.0) * v;
+  }
+  return (2.0 * std::atan2(n, w) / n) * v;
+}
+
+double SO3::angle() const { return 2.0 * std::atan2(q_.vec().norm(), q_.w()); }
+
+SO3 SO3::inverse() const { return SO3(q_.conjugate()); }
+
+SO3 SO3::operator*(const SO3& other) const { return SO3(q_ * other.q_); }
+
+Eigen::Vector3d SO3::operator*(const Eigen::Vector3d& p) const { return q_ * p; }
+
+Eigen::Matrix3d SO3::matrix() const { return q_.toRotationMatrix(); }
+
+Eigen::Matrix3d SO3::hat(const Tangent& w) {
+  Eigen::Matrix3d W;
+  W << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+  return W;
+}
+
+SO3::Tangent SO3::vee(const Eigen::Matrix3d& W) { return {W(2, 1), W(0, 2), W(1, 0)}; }
+
+Eigen::Matrix3d SO3::left_jacobian(const Tangent& w) {
+  const double theta2 = w.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  const Eigen::Matrix3d W = hat(w);
+  double a = 0.0, b = 0.0;  // (1 - cos t)/t^2, (t - sin t)/t^3
+  if (theta < kSmallAngle) {
+    a = 0.5 - theta2 / 24.0;
+    b = 1.0 / 6.0 - theta2 / 120.0;
+  } else {
+    a = (1.0 - std::cos(theta)) / theta2;
+    b = (theta - std::sin(theta)) / (theta2 * theta);
+  }
+  return Eigen::Matrix3d::Identity() + a * W + b * W * W;
+}
+
+Eigen::Matrix3d SO3::left_jacobian_inverse(const Tangent& w) {
+  const double theta2 = w.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  const Eigen::Matrix3d W = hat(w);
+  double c = 0.0;  // (1 - t sin t / (2 (1 - cos t))) / t^2
+  if (theta < kSmallAngle) {
+    c = 1.0 / 12.0 + theta2 / 720.0;
+  } else {
+    c = (1.0 - theta * std::sin(theta) / (2.0 * (1.0 - std::cos(theta)))) / theta2;
+  }
+  return Eigen::Matrix3d::Identity() - 0.5 * W + c * W * W;
+}
+
+}  // namespace kestrel
