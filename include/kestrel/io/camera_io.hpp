@@ -1,0 +1,48 @@
+// Loading and saving camera models: Kestrel's own YAML, EuRoC sensor.yaml, and the standard
+// presets of the TUM RGB-D benchmark (fr1, fr2, fr3, ros).
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "kestrel/geometry/pinhole_camera.hpp"
+#include "kestrel/geometry/se3.hpp"
+
+namespace kestrel::io {
+
+/// TUM RGB-D presets (values: shared/reference/README.md). fr1 carries its distortion;
+/// fr3 images are already undistorted. Returns nullopt for an unknown name.
+std::optional<PinholeCamera> camera_preset(std::string_view name);
+
+/// A camera description from a file: Kestrel's YAML (a `camera:` map with width, height, fx,
+/// fy, cx, cy and optional `distortion: [k1, k2, p1, p2, k3]`) or an EuRoC sensor.yaml
+/// (intrinsics, resolution, distortion_coefficients, T_BS).
+struct CameraFile {
+  PinholeCamera camera;
+  std::optional<SE3> T_body_sensor;  ///< EuRoC T_BS, when the file has one
+};
+
+/// Loads either format (detected from the keys). Errors name the file and field.
+CameraFile load_camera_file(const std::filesystem::path& path);
+/// A preset name or a file path.
+PinholeCamera load_camera(const std::string& preset_or_path);
+
+/// Kestrel's YAML for a rectified stereo pair: `stereo:` map with f, cu, cv, baseline_m,
+/// width, height.
+RectifiedStereo load_rectified_stereo(const std::filesystem::path& path);
+
+/// Writes Kestrel's camera YAML (with the provenance line of `command`).
+void save_camera_yaml(const std::filesystem::path& path, const PinholeCamera& camera,
+                      std::string_view command, bool force = false);
+void save_rectified_stereo_yaml(const std::filesystem::path& path, const RectifiedStereo& stereo,
+                                std::string_view command, bool force = false);
+
+/// Writes an EuRoC-style sensor.yaml for a camera (so rendered stereo folders load like
+/// real EuRoC ones).
+void save_euroc_camera_yaml(const std::filesystem::path& path, const PinholeCamera& camera,
+                            const SE3& T_body_sensor, double rate_hz, std::string_view command,
+                            bool force = false);
+
+}  // namespace kestrel::io
