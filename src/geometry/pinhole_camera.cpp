@@ -1,6 +1,7 @@
 // Pinhole projection and radial-tangential distortion (thesis 2.2).
 #include "kestrel/geometry/pinhole_camera.hpp"
 
+#include <Eigen/LU>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>

@@ -1,0 +1,96 @@
+// Camera presets and files: TUM presets, Kestrel YAML round trip, EuRoC sensor.yaml.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/camera_io.hpp"
+#include "test_data.hpp"
+
+namespace kestrel::io {
+namespace {
+
+TEST(CameraPresets, TumValues) {
+  const auto fr1 = camera_preset("fr1");
+  ASSERT_TRUE(fr1);
+  EXPECT_DOUBLE_EQ(fr1->fx(), 517.3);
+  EXPECT_DOUBLE_EQ(fr1->cy(), 255.3);
+  EXPECT_DOUBLE_EQ(fr1->distortion().k3, 1.1633);
+  EXPECT_DOUBLE_EQ(camera_preset("fr2")->fx(), 520.9);
+  EXPECT_FALSE(camera_preset("fr3")->has_distortion());
+  EXPECT_DOUBLE_EQ(camera_preset("ros")->cx(), 319.5);
+  EXPECT_FALSE(camera_preset("fr4"));
+  EXPECT_THROW(load_camera("no-such-camera"), InputError);
+}
+
+TEST(CameraYaml, RoundTripKeepsEveryValue) {
+  const auto dir = test::fresh_temp_dir("io");
+  const PinholeCamera cam({458.654, 457.296, 367.215, 248.375, 752, 480},
+                          {-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05, 0.001});
+  save_camera_yaml(dir / "cam.yaml", cam, "test");
+  const PinholeCamera back = load_camera((dir / "cam.yaml").string());
+  EXPECT_DOUBLE_EQ(back.fx(), cam.fx());
+  EXPECT_DOUBLE_EQ(back.cy(), cam.cy());
+  EXPECT_EQ(back.width(), 752);
+  EXPECT_DOUBLE_EQ(back.distortion().p2, cam.distortion().p2);
+  EXPECT_DOUBLE_EQ(back.distortion().k3, 0.001);
+  // Re-saving with another command is refused (the file says who wrote it).
+  EXPECT_THROW(save_camera_yaml(dir / "cam.yaml", cam, "other"), InputError);
+
+  const RectifiedStereo st{450.0, 370.0, 250.0, 0.11, 752, 480};
+  save_rectified_stereo_yaml(dir / "stereo.yaml", st, "test");
+  const RectifiedStereo st2 = load_rectified_stereo(dir / "stereo.yaml");
+  EXPECT_DOUBLE_EQ(st2.baseline_m, 0.11);
+  EXPECT_DOUBLE_EQ(st2.depth_from_disparity(10.0), 0.11 * 450.0 / 10.0);
+}
+
+TEST(CameraYaml, EurocWriterMatchesReader) {
+  const auto dir = test::fresh_temp_dir("io");
+  const PinholeCamera cam({400, 401, 320, 240, 640, 480}, {0.1, -0.01, 0.001, 0.002, 0});
+  const SE3 T_BS = SE3::exp((Vector6d() << 0.1, 0.2, 0.3, 0.01, -0.02, 0.5).finished());
+  save_euroc_camera_yaml(dir / "sensor.yaml", cam, T_BS, 20.0, "test");
+  const CameraFile f = load_camera_file(dir / "sensor.yaml");
+  EXPECT_DOUBLE_EQ(f.camera.fy(), 401);
+  ASSERT_TRUE(f.T_body_sensor);
+  EXPECT_LT((f.T_body_sensor->matrix() - T_BS.matrix()).norm(), 1e-9);
+}
+
+TEST(CameraYaml, MissingFieldIsNamed) {
+  const auto dir = test::fresh_temp_dir("io");
+  std::ofstream(dir / "bad.yaml") << "camera:\n  fx: 500\n  fy: 500\n  cx: 320\n  width: 640\n"
+                                     "  height: 480\n";
+  try {
+    load_camera_file(dir / "bad.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("camera.cy"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos);
+  }
+  std::ofstream(dir / "neg.yaml") << "camera: {fx: -1, fy: 500, cx: 1, cy: 1, width: 2, height: 2}\n";
+  EXPECT_THROW(load_camera_file(dir / "neg.yaml"), InputError);
+  std::ofstream(dir / "broken.yaml") << "camera: [1, 2\n";
+  try {
+    load_camera_file(dir / "broken.yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("broken.yaml:"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir / "other.yaml") << "foo: 1\n";
+  EXPECT_THROW(load_camera_file(dir / "other.yaml"), InputError);
+}
+
+TEST(CameraYaml, RealEurocSensorFile) {
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/cam0/sensor.yaml");
+  const auto f = load_camera_file(test::shared_data_dir() /
+                                  "euroc/V1_01_easy_part1/mav0/cam0/sensor.yaml");
+  EXPECT_DOUBLE_EQ(f.camera.fx(), 458.654);
+  EXPECT_DOUBLE_EQ(f.camera.cy(), 248.375);
+  EXPECT_EQ(f.camera.width(), 752);
+  EXPECT_EQ(f.camera.height(), 480);
+  EXPECT_DOUBLE_EQ(f.camera.distortion().k1, -0.28340811);
+  ASSERT_TRUE(f.T_body_sensor);
+  EXPECT_NEAR(f.T_body_sensor->translation().x(), -0.0216401454975, 1e-12);
+}
+
+}  // namespace
+}  // namespace kestrel::io
