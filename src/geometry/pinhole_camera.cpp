@@ -19,6 +19,12 @@ PinholeCamera::PinholeCamera(const PinholeIntrinsics& k, const RadTanDistortion&
   if (!std::isfinite(k.cx) || !std::isfinite(k.cy)) {
     throw std::invalid_argument("PinholeCamera: principal point must be finite");
   }
+  // A NaN coefficient (a bad calibration file) would otherwise surface as NaN pixels later.
+  for (const double c : {d.k1, d.k2, d.p1, d.p2, d.k3}) {
+    if (!std::isfinite(c)) {
+      throw std::invalid_argument("PinholeCamera: distortion coefficients must be finite");
+    }
+  }
 }
 
 Eigen::Matrix3d PinholeCamera::K() const {
@@ -105,6 +111,9 @@ void RectifiedStereo::validate() const {
   if (!(f > 0.0) || !(baseline_m > 0.0) || width <= 0 || height <= 0) {
     throw std::invalid_argument(
         "RectifiedStereo: f, baseline_m, width and height must all be positive");
+  }
+  if (!std::isfinite(f) || !std::isfinite(baseline_m) || !std::isfinite(cu) || !std::isfinite(cv)) {
+    throw std::invalid_argument("RectifiedStereo: f, baseline_m, cu and cv must be finite");
   }
 }
 

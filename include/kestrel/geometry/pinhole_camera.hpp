@@ -23,7 +23,8 @@ struct PinholeIntrinsics {
 class PinholeCamera {
  public:
   PinholeCamera() = default;
-  /// Throws std::invalid_argument for non-positive focal lengths or image size.
+  /// Throws std::invalid_argument for non-positive or non-finite focal lengths, a
+  /// non-positive image size, or a non-finite principal point or distortion coefficient.
   explicit PinholeCamera(const PinholeIntrinsics& k, const RadTanDistortion& d = {});
 
   [[nodiscard]] double fx() const { return k_.fx; }
@@ -76,7 +77,8 @@ struct RectifiedStereo {
   [[nodiscard]] double disparity_from_depth(double z_m) const { return baseline_m * f / z_m; }
   /// The (distortion-free) left camera.
   [[nodiscard]] PinholeCamera left() const;
-  /// Throws std::invalid_argument unless f, baseline and size are positive.
+  /// Throws std::invalid_argument unless f, baseline and size are positive and f, baseline,
+  /// cu, cv finite.
   void validate() const;
 };
 
