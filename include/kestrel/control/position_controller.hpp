@@ -1,0 +1,103 @@
+// Cascaded position controller (thesis 4.4: the position controller flies on the EKF's state):
+// position P -> velocity PI (with feed-forward) -> acceleration -> thrust vector with gravity
+// feed-forward -> tilt angles relative to the heading + collective thrust, with anti-windup,
+// speed, tilt, tilt-rate and yaw-rate limits and a heading P loop.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "kestrel/control/types.hpp"
+
+namespace kestrel::control {
+
+struct PositionControllerOptions {
+  double mass_kg = 1.2;  ///< the vehicle's mass (thrust = mass * acceleration)
+  // --- position loop (P): velocity command per metre of error ---
+  double position_gain_xy = 1.4;  ///< 1/s
+  double position_gain_z = 1.5;   ///< 1/s
+  double max_speed_xy_m_s = 2.0;  ///< horizontal velocity command limit
+  double max_speed_z_m_s = 1.0;   ///< vertical velocity command limit
+  // --- velocity loop (PI): acceleration per m/s of error ---
+  double velocity_gain_xy = 3.0;  ///< 1/s
+  double velocity_gain_z = 4.0;   ///< 1/s
+  double velocity_integral_gain_xy = 0.8;  ///< 1/s^2
+  double velocity_integral_gain_z = 2.0;   ///< 1/s^2 (learns the hover thrust)
+  double integral_limit_xy_m_s2 = 2.0;     ///< anti-windup clamp of the integral terms
+  double integral_limit_z_m_s2 = 3.0;
+  double max_accel_xy_m_s2 = 5.0;
+  // --- thrust and attitude limits ---
+  double max_tilt_deg = 30.0;      ///< below the flight controller's 45 deg (table C.3)
+  double max_tilt_rate_deg_s = 180.0;  ///< slew limit of the roll/pitch commands
+  double min_thrust_N = 2.0;       ///< keeps the attitude controllable while descending
+  double max_thrust_N = 24.0;      ///< below the rotors' 28 N, leaving room for attitude
+  // --- heading ---
+  double yaw_gain = 1.5;  ///< 1/s
+  double max_yaw_rate_deg_s = 90.0;
+
+  void validate() const;
+  [[nodiscard]] std::string to_yaml() const;
+  static PositionControllerOptions from_yaml(const YAML::Node& node, const std::string& source);
+  /// The options at the top level or under a `controller:` key.
+  static PositionControllerOptions load(const std::filesystem::path& path);
+
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("mass_kg", mass_kg);
+    v("position_gain_xy", position_gain_xy);
+    v("position_gain_z", position_gain_z);
+    v("max_speed_xy_m_s", max_speed_xy_m_s);
+    v("max_speed_z_m_s", max_speed_z_m_s);
+    v("velocity_gain_xy", velocity_gain_xy);
+    v("velocity_gain_z", velocity_gain_z);
+    v("velocity_integral_gain_xy", velocity_integral_gain_xy);
+    v("velocity_integral_gain_z", velocity_integral_gain_z);
+    v("integral_limit_xy_m_s2", integral_limit_xy_m_s2);
+    v("integral_limit_z_m_s2", integral_limit_z_m_s2);
+    v("max_accel_xy_m_s2", max_accel_xy_m_s2);
+    v("max_tilt_deg", max_tilt_deg);
+    v("max_tilt_rate_deg_s", max_tilt_rate_deg_s);
+    v("min_thrust_N", min_thrust_N);
+    v("max_thrust_N", max_thrust_N);
+    v("yaw_gain", yaw_gain);
+    v("max_yaw_rate_deg_s", max_yaw_rate_deg_s);
+  }
+};
+
+/// One controller step's result: the command and what limited it.
+struct ControllerOutput {
+  AttitudeThrustCommand command;
+  Eigen::Vector3d velocity_command_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d acceleration_command_world = Eigen::Vector3d::Zero();  ///< after the limits
+  Eigen::Vector3d integral_m_s2 = Eigen::Vector3d::Zero();
+  bool tilt_limited = false;
+  bool thrust_limited = false;
+  bool speed_limited = false;
+};
+
+class PositionController {
+ public:
+  explicit PositionController(PositionControllerOptions options = {});
+
+  /// One step at the estimate's time t_ns; dt is the time since the previous step (the first
+  /// step, a step backwards in time, or one after more than 0.5 s does not integrate).
+  ControllerOutput update(const VehicleStateEstimate& estimate, const PositionReference& reference);
+
+  /// Forgets the integrators and the command history (e.g. on the ground, before take-off).
+  void reset();
+  /// The thrust that holds the vehicle in hover as learnt by the z integrator: m (g + I_z).
+  [[nodiscard]] double hover_thrust_estimate_N() const;
+  [[nodiscard]] const PositionControllerOptions& options() const { return options_; }
+
+ private:
+  PositionControllerOptions options_;
+  Eigen::Vector3d integral_ = Eigen::Vector3d::Zero();
+  std::optional<TimeNs> last_t_ns_;
+  double last_roll_ = 0.0;
+  double last_pitch_ = 0.0;
+};
+
+}  // namespace kestrel::control

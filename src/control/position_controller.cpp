@@ -1,0 +1,194 @@
+// Cascaded P / PI position controller with gravity feed-forward and limits.
+#include "kestrel/control/position_controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "kestrel/control/yaml_options.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/yaml_file.hpp"
+
+namespace kestrel::control {
+
+namespace {
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+// Scales the horizontal part of v to at most `limit`; true if it did.
+bool limit_horizontal(Eigen::Vector3d& v, double limit) {
+  const double n = v.head<2>().norm();
+  if (n <= limit) return false;
+  v.head<2>() *= limit / n;
+  return true;
+}
+}  // namespace
+
+double wrap_angle(double rad) {
+  const double two_pi = 2.0 * std::numbers::pi;
+  double r = std::fmod(rad + std::numbers::pi, two_pi);
+  if (r <= 0.0) r += two_pi;
+  return r - std::numbers::pi;
+}
+
+double yaw_of(const SO3& R_world_body) {
+  const Eigen::Vector3d x = R_world_body * Eigen::Vector3d::UnitX();
+  return std::atan2(x.y(), x.x());
+}
+
+void PositionControllerOptions::validate() const {
+  auto fail = [](const std::string& field, const std::string& why) {
+    throw InputError("controller option '" + field + "': " + why);
+  };
+  auto pos = [&](const char* name, double v) {
+    if (!(std::isfinite(v) && v > 0.0)) fail(name, "must be positive and finite");
+  };
+  auto nonneg = [&](const char* name, double v) {
+    if (!(std::isfinite(v) && v >= 0.0)) fail(name, "must be >= 0 and finite");
+  };
+  pos("mass_kg", mass_kg);
+  pos("position_gain_xy", position_gain_xy);
+  pos("position_gain_z", position_gain_z);
+  pos("max_speed_xy_m_s", max_speed_xy_m_s);
+  pos("max_speed_z_m_s", max_speed_z_m_s);
+  pos("velocity_gain_xy", velocity_gain_xy);
+  pos("velocity_gain_z", velocity_gain_z);
+  nonneg("velocity_integral_gain_xy", velocity_integral_gain_xy);
+  nonneg("velocity_integral_gain_z", velocity_integral_gain_z);
+  nonneg("integral_limit_xy_m_s2", integral_limit_xy_m_s2);
+  nonneg("integral_limit_z_m_s2", integral_limit_z_m_s2);
+  pos("max_accel_xy_m_s2", max_accel_xy_m_s2);
+  pos("max_tilt_deg", max_tilt_deg);
+  if (max_tilt_deg >= 89.0) fail("max_tilt_deg", "must be below 89");
+  pos("max_tilt_rate_deg_s", max_tilt_rate_deg_s);
+  pos("min_thrust_N", min_thrust_N);
+  pos("max_thrust_N", max_thrust_N);
+  if (max_thrust_N <= mass_kg * kGravity) fail("max_thrust_N", "must exceed the weight mass_kg * g");
+  if (min_thrust_N >= mass_kg * kGravity) fail("min_thrust_N", "must be below the weight mass_kg * g");
+  nonneg("yaw_gain", yaw_gain);
+  pos("max_yaw_rate_deg_s", max_yaw_rate_deg_s);
+}
+
+std::string PositionControllerOptions::to_yaml() const { return yaml_options::to_yaml(*this); }
+
+PositionControllerOptions PositionControllerOptions::from_yaml(const YAML::Node& node,
+                                                               const std::string& source) {
+  PositionControllerOptions o;
+  yaml_options::read_fields(node, source, "controller", o);
+  o.validate();
+  return o;
+}
+
+PositionControllerOptions PositionControllerOptions::load(const std::filesystem::path& path) {
+  const YAML::Node root = io::load_yaml_file(path);
+  if (root.IsMap() && root["controller"]) return from_yaml(root["controller"], path.string());
+  return from_yaml(root, path.string());
+}
+
+PositionController::PositionController(PositionControllerOptions options)
+    : options_(std::move(options)) {
+  options_.validate();
+}
+
+void PositionController::reset() {
+  integral_.setZero();
+  last_t_ns_.reset();
+  last_roll_ = 0.0;
+  last_pitch_ = 0.0;
+}
+
+double PositionController::hover_thrust_estimate_N() const {
+  return options_.mass_kg * (kGravity + integral_.z());
+}
+
+ControllerOutput PositionController::update(const VehicleStateEstimate& est,
+                                            const PositionReference& ref) {
+  const auto& o = options_;
+  double dt = 0.0;
+  if (last_t_ns_) dt = ns_to_s(est.t_ns - *last_t_ns_);
+  if (!(dt > 0.0 && dt <= 0.5)) dt = 0.0;
+  last_t_ns_ = est.t_ns;
+
+  ControllerOutput out;
+  // Position P -> velocity command, with the reference's velocity as feed-forward.
+  const Eigen::Vector3d e_p = ref.p_world - est.p_world;
+  Eigen::Vector3d v_cmd = ref.v_world + Eigen::Vector3d(o.position_gain_xy * e_p.x(),
+                                                        o.position_gain_xy * e_p.y(),
+                                                        o.position_gain_z * e_p.z());
+  out.speed_limited = limit_horizontal(v_cmd, o.max_speed_xy_m_s);
+  if (std::abs(v_cmd.z()) > o.max_speed_z_m_s) {
+    v_cmd.z() = std::copysign(o.max_speed_z_m_s, v_cmd.z());
+    out.speed_limited = true;
+  }
+  out.velocity_command_world = v_cmd;
+
+  // Velocity PI -> acceleration command, with the reference's acceleration as feed-forward.
+  const Eigen::Vector3d e_v = v_cmd - est.v_world;
+  Eigen::Vector3d a_cmd = ref.a_world + integral_ +
+                          Eigen::Vector3d(o.velocity_gain_xy * e_v.x(), o.velocity_gain_xy * e_v.y(),
+                                          o.velocity_gain_z * e_v.z());
+  const bool accel_limited = limit_horizontal(a_cmd, o.max_accel_xy_m_s2);
+
+  // Thrust vector with gravity feed-forward, F = m (a + g e_z), then tilt and thrust limits:
+  // the vertical part has priority, the horizontal part is scaled into the tilt cone.
+  Eigen::Vector3d F = o.mass_kg * (a_cmd + Eigen::Vector3d(0.0, 0.0, kGravity));
+  if (F.z() < o.min_thrust_N) {
+    F.z() = o.min_thrust_N;
+    out.thrust_limited = true;
+  }
+  out.tilt_limited = limit_horizontal(F, F.z() * std::tan(o.max_tilt_deg * kDegToRad));
+  double thrust = F.norm();
+  if (thrust > o.max_thrust_N) {
+    // Keep the vertical part where possible; give up horizontal authority first.
+    out.thrust_limited = true;
+    const double z = std::min(F.z(), o.max_thrust_N);
+    const double xy_max = std::sqrt(std::max(0.0, o.max_thrust_N * o.max_thrust_N - z * z));
+    F.z() = z;
+    out.tilt_limited |= limit_horizontal(F, xy_max);
+    thrust = F.norm();
+  } else if (thrust < o.min_thrust_N) {
+    thrust = o.min_thrust_N;
+    out.thrust_limited = true;
+  }
+  out.acceleration_command_world = F / o.mass_kg - Eigen::Vector3d(0.0, 0.0, kGravity);
+
+  // Anti-windup: integrate only while the output is not saturated in the error's direction
+  // (conditional integration), and clamp.
+  if (dt > 0.0) {
+    if (!(out.tilt_limited || accel_limited)) {
+      integral_.head<2>() += o.velocity_integral_gain_xy * e_v.head<2>() * dt;
+      limit_horizontal(integral_, o.integral_limit_xy_m_s2);
+    }
+    const bool z_saturated_up = out.thrust_limited && F.z() >= o.max_thrust_N * 0.999;
+    const bool z_saturated_down = out.thrust_limited && F.z() <= o.min_thrust_N * 1.001;
+    if (!(z_saturated_up && e_v.z() > 0.0) && !(z_saturated_down && e_v.z() < 0.0)) {
+      integral_.z() = std::clamp(integral_.z() + o.velocity_integral_gain_z * e_v.z() * dt,
+                                 -o.integral_limit_z_m_s2, o.integral_limit_z_m_s2);
+    }
+  }
+  out.integral_m_s2 = integral_;
+
+  // Thrust direction in the heading frame -> ZYX roll and pitch: b = Ry(pitch) Rx(roll) e_z
+  // = (cos r sin p, -sin r, cos r cos p).
+  const double yaw = yaw_of(est.R_world_body);
+  const Eigen::Vector3d b = SO3::exp(Eigen::Vector3d(0.0, 0.0, -yaw)) * F.normalized();
+  double roll = std::asin(std::clamp(-b.y(), -1.0, 1.0));
+  double pitch = std::atan2(b.x(), b.z());
+  if (dt > 0.0) {
+    const double max_step = o.max_tilt_rate_deg_s * kDegToRad * dt;
+    roll = std::clamp(roll, last_roll_ - max_step, last_roll_ + max_step);
+    pitch = std::clamp(pitch, last_pitch_ - max_step, last_pitch_ + max_step);
+  }
+  last_roll_ = roll;
+  last_pitch_ = pitch;
+
+  const double max_yaw_rate = o.max_yaw_rate_deg_s * kDegToRad;
+  const double yaw_rate = ref.yaw_rate_rad_s + o.yaw_gain * wrap_angle(ref.yaw_rad - yaw);
+
+  out.command.roll_rad = roll;
+  out.command.pitch_rad = pitch;
+  out.command.yaw_rate_rad_s = std::clamp(yaw_rate, -max_yaw_rate, max_yaw_rate);
+  out.command.thrust_N = thrust;
+  return out;
+}
+
+}  // namespace kestrel::control

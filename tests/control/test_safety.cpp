@@ -1,0 +1,192 @@
+// Safety behaviours, each in closed loop on the simulated vehicle: odometry loss (hold on the
+// IMU, recover; or land after the timeout), estimator failure (level open-loop descent),
+// the command watchdog (controller hangs: level, descend, cut off), command bounds.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+
+#include "closed_loop.hpp"
+
+namespace kestrel::control {
+namespace {
+
+using test::ClosedLoop;
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+sim::QuadrotorState hover_at(const Eigen::Vector3d& p) {
+  return sim::Quadrotor::hover_state(sim::QuadrotorParameters{}, p);
+}
+
+PositionReference point(const Eigen::Vector3d& p) {
+  PositionReference r;
+  r.p_world = p;
+  return r;
+}
+
+// Odometry silent in [from, to) seconds.
+std::function<EstimatorHealth(TimeNs)> vision_gap(double from_s, double to_s) {
+  return [=](TimeNs t) {
+    EstimatorHealth h;
+    const double ts = ns_to_s(t);
+    h.last_vision_update_ns = (ts >= from_s && ts < to_s) ? s_to_ns(from_s) : t;
+    return h;
+  };
+}
+
+TEST(Safety, OdometryLossFor2sHoldsAndRecovers) {
+  ClosedLoop loop(hover_at({0, 0, 1.5}));
+  // Flying towards x = 1 m when the odometry drops out at t = 4 s for 2 s.
+  loop.reference = [](double t) { return point({t < 3.0 ? 0.0 : 1.0, 0.0, 1.5}); };
+  loop.health = vision_gap(4.0, 6.0);
+  const auto log = loop.run(12.0);
+  bool held = false;
+  for (const auto& s : log) {
+    if (s.t_s > 4.35 && s.t_s < 5.9) {
+      EXPECT_EQ(s.mode, SafetyMode::kImuHold) << s.t_s;
+      held = true;
+    }
+    if (s.t_s > 6.1) {
+      EXPECT_EQ(s.mode, SafetyMode::kNominal) << s.t_s;
+    }
+  }
+  EXPECT_TRUE(held);
+  const Eigen::Vector3d final_err = log.back().p_true - Eigen::Vector3d(1, 0, 1.5);
+  std::printf("[figure] 2 s odometry gap: final error %.4f m, crashed %d\n", final_err.norm(),
+              log.back().crashed ? 1 : 0);
+  EXPECT_LT(final_err.norm(), 0.01);
+  EXPECT_FALSE(log.back().crashed);
+}
+
+TEST(Safety, LongOdometryLossLandsAfterTheTimeout) {
+  ClosedLoop loop(hover_at({0.5, 0.5, 1.5}));
+  loop.reference = [](double) { return point({0.5, 0.5, 1.5}); };
+  loop.health = vision_gap(1.0, 1e9);
+  const auto log = loop.run(14.0);
+  double landing_start = -1.0, landed_at = -1.0;
+  for (const auto& s : log) {
+    if (landing_start < 0 && s.mode == SafetyMode::kLanding) landing_start = s.t_s;
+    if (landed_at < 0 && s.mode == SafetyMode::kLanded) landed_at = s.t_s;
+  }
+  const auto& st = loop.vehicle.state();
+  std::printf("[figure] odometry lost: landing at %.2f s, landed at %.2f s, touchdown %.2f m/s, "
+              "drift %.3f m\n", landing_start, landed_at, st.touchdown_speed_m_s,
+              (st.p_world.head<2>() - Eigen::Vector2d(0.5, 0.5)).norm());
+  EXPECT_NEAR(landing_start, 1.0 + 0.3 + 5.0, 0.05);
+  EXPECT_GT(landed_at, landing_start);
+  EXPECT_TRUE(st.on_ground);
+  EXPECT_FALSE(st.crashed);
+  EXPECT_LT(st.touchdown_speed_m_s, 0.6);
+  EXPECT_LT((st.p_world.head<2>() - Eigen::Vector2d(0.5, 0.5)).norm(), 0.05);
+  EXPECT_EQ(loop.output.latest().us[PwmChannels::kThrottle], 1000) << "motors off once landed";
+}
+
+TEST(Safety, EstimatorFailureDescendsLevelAndCutsTheMotors) {
+  ClosedLoop loop(hover_at({0, 0, 1.5}));
+  loop.reference = [](double) { return point({0, 0, 1.5}); };
+  loop.health = [](TimeNs t) {
+    EstimatorHealth h;
+    h.last_vision_update_ns = t;
+    h.estimate_valid = ns_to_s(t) < 3.0;  // the filter diverges at 3 s
+    return h;
+  };
+  const auto log = loop.run(16.0);
+  double max_tilt = 0.0;
+  for (const auto& s : log) {
+    if (s.t_s > 3.0) {
+      EXPECT_TRUE(s.mode == SafetyMode::kBlindDescent || s.mode == SafetyMode::kLanded) << s.t_s;
+      max_tilt = std::max(max_tilt, std::hypot(s.command.roll_rad, s.command.pitch_rad));
+    }
+  }
+  const auto& st = loop.vehicle.state();
+  std::printf("[figure] estimator failure: touchdown %.2f m/s, drift %.3f m\n", st.touchdown_speed_m_s,
+              st.p_world.head<2>().norm());
+  EXPECT_EQ(max_tilt, 0.0) << "level";
+  EXPECT_TRUE(st.on_ground);
+  EXPECT_FALSE(st.crashed);
+  EXPECT_LT(st.touchdown_speed_m_s, 1.5);
+  EXPECT_EQ(log.back().mode, SafetyMode::kLanded);
+  EXPECT_EQ(loop.output.latest().us[PwmChannels::kThrottle], 1000);
+}
+
+TEST(Safety, WatchdogLevelsAndDescendsWhenCommandsStop) {
+  ClosedLoop loop(hover_at({0, 0, 1.5}));
+  // Flying sideways at 0.5 m/s when the controller hangs at t = 4 s.
+  loop.reference = [](double t) {
+    PositionReference r;
+    r.p_world = {0.5 * t, 0, 1.5};
+    r.v_world = {0.5, 0, 0};
+    return r;
+  };
+  loop.controller_alive = [](double t) { return t < 4.0; };
+  const auto log = loop.run(14.0);
+  double tripped_at = -1.0, cut_at = -1.0;
+  for (const auto& s : log) {
+    if (tripped_at < 0 && s.watchdog == WatchdogState::kTripped) tripped_at = s.t_s;
+    if (cut_at < 0 && s.watchdog == WatchdogState::kCutOff) cut_at = s.t_s;
+    if (s.watchdog == WatchdogState::kTripped) {
+      EXPECT_EQ(s.command.roll_rad, 0.0);
+      EXPECT_EQ(s.command.pitch_rad, 0.0);
+      EXPECT_LT(s.command.thrust_N, 1.2 * kGravity);
+    }
+  }
+  const auto& st = loop.vehicle.state();
+  std::printf("[figure] watchdog: tripped %.3f s after the last command, cut off at %.2f s, "
+              "touchdown %.2f m/s\n", tripped_at - 4.0 + 0.005, cut_at, st.touchdown_speed_m_s);
+  EXPECT_NEAR(tripped_at, 4.25, 0.01);
+  EXPECT_NEAR(cut_at, 4.0 + 0.25 + 8.0, 0.01);
+  EXPECT_TRUE(st.on_ground);
+  EXPECT_FALSE(st.crashed);
+  EXPECT_LT(st.touchdown_speed_m_s, 1.5);
+  EXPECT_EQ(loop.output.latest().us[PwmChannels::kThrottle], 1000);
+}
+
+TEST(CommandWatchdog, PassesFreshCommandsAndNeedsARearmAfterACutOff) {
+  CommandWatchdog w;
+  EXPECT_TRUE(w.output(0).motors_off) << "nothing commanded yet";
+  AttitudeThrustCommand c{0.1, -0.1, 0.2, 12.0};
+  w.submit(0, c);
+  auto out = w.output(100'000'000);
+  EXPECT_EQ(out.state, WatchdogState::kActive);
+  EXPECT_EQ(out.command.roll_rad, 0.1);
+  out = w.output(300'000'000);
+  EXPECT_EQ(out.state, WatchdogState::kTripped);
+  out = w.output(9'000'000'000);
+  EXPECT_EQ(out.state, WatchdogState::kCutOff);
+  w.submit(9'000'000'000, c);
+  EXPECT_EQ(w.output(9'001'000'000).state, WatchdogState::kCutOff);
+  w.rearm();
+  w.submit(9'002'000'000, c);
+  EXPECT_EQ(w.output(9'003'000'000).state, WatchdogState::kActive);
+}
+
+TEST(BoundCommand, ClipsAndReplacesNonFiniteValues) {
+  const CommandLimits l;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto b = bound_command({nan, 2.0, -10.0, nan}, l, 11.0);
+  EXPECT_TRUE(b.non_finite);
+  EXPECT_TRUE(b.clipped);
+  EXPECT_EQ(b.command.roll_rad, 0.0);
+  EXPECT_NEAR(b.command.pitch_rad, 35 * kDeg, 1e-12);
+  EXPECT_NEAR(b.command.yaw_rate_rad_s, -120 * kDeg, 1e-12);
+  EXPECT_EQ(b.command.thrust_N, 11.0);
+  b = bound_command({0.1, 0.1, 0.1, 12.0}, l, 11.0);
+  EXPECT_FALSE(b.clipped || b.non_finite);
+}
+
+TEST(SafetySupervisor, NonFiniteEstimateIsAFailure) {
+  SafetySupervisor s;
+  VehicleStateEstimate e;
+  e.p_world.x() = std::numeric_limits<double>::quiet_NaN();
+  EstimatorHealth h;
+  const auto d = s.update(0, e, h, PositionReference{}, 11.8);
+  EXPECT_EQ(d.mode, SafetyMode::kBlindDescent);
+  ASSERT_TRUE(d.override_command.has_value());
+  EXPECT_NEAR(d.override_command->thrust_N, 0.95 * 11.8, 1e-12);
+  EXPECT_FALSE(d.reason.empty());
+}
+
+}  // namespace
+}  // namespace kestrel::control
