@@ -1,0 +1,108 @@
+// Peer runner for issue 3's comparison: OpenCV contrib's RgbdOdometry (dense photometric) and
+// RgbdICPOdometry (projective point-to-plane ICP) frame to frame on a TUM RGB-D folder, single
+// threaded, writing a TUM trajectory (first frame at the identity) and the per-frame time.
+//
+//   peer_opencv_odometry rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]
+//
+// Frames come from kestrel's own TUM reader (same association as `kestrel odometry`); images are
+// not undistorted (OpenCV's odometry assumes a pinhole image, as its users feed it). Prints
+// "PEER method=<m> frames=<N> failures=<F> mean_ms=<X> median_ms=<Y>" on stdout, where the time
+// is that of odometry.compute() plus the conversion to gray and the frame preparation.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+#include <limits>
+#include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/rgbd.hpp>
+
+#include "kestrel/io/camera_io.hpp"
+#include "kestrel/io/trajectory_io.hpp"
+#include "kestrel/io/tum_rgbd.hpp"
+
+int main(int argc, char** argv) {
+  using namespace kestrel;
+  if (argc < 4) {
+    std::cerr << "usage: " << argv[0] << " rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]\n";
+    return 2;
+  }
+  const std::string method = argv[1];
+  if (method != "rgbd" && method != "icp") {
+    std::cerr << "method must be rgbd or icp\n";
+    return 2;
+  }
+  try {
+    cv::setNumThreads(1);
+    const io::TumRgbdSequence seq(argv[2]);
+    const auto camera = io::camera_preset(argc > 4 ? argv[4] : "fr1");
+    if (!camera) {
+      std::cerr << "unknown camera preset\n";
+      return 2;
+    }
+    cv::Mat K = (cv::Mat_<float>(3, 3) << static_cast<float>(camera->fx()), 0.F,
+                 static_cast<float>(camera->cx()), 0.F, static_cast<float>(camera->fy()),
+                 static_cast<float>(camera->cy()), 0.F, 0.F, 1.F);
+    cv::Ptr<cv::rgbd::Odometry> odometry;
+    if (method == "rgbd") {
+      odometry = cv::rgbd::RgbdOdometry::create(K);
+    } else {
+      odometry = cv::rgbd::RgbdICPOdometry::create(K);
+    }
+    Trajectory trajectory;
+    std::vector<double> ms;
+    int failures = 0;
+    cv::Ptr<cv::rgbd::OdometryFrame> prev;
+    Eigen::Matrix4d T_world_prev = Eigen::Matrix4d::Identity();
+    for (std::size_t i = 0; i < seq.size(); ++i) {
+      const io::RgbdImages im = seq.load(i);
+      const auto t0 = std::chrono::steady_clock::now();
+      cv::Mat gray;
+      cv::cvtColor(im.bgr, gray, cv::COLOR_BGR2GRAY);
+      cv::Mat depth = im.depth_m.clone();
+      depth.setTo(std::numeric_limits<float>::quiet_NaN(), depth <= 0.0F);  // OpenCV: NaN = none
+      cv::Ptr<cv::rgbd::OdometryFrame> cur =
+          cv::makePtr<cv::rgbd::OdometryFrame>(gray, depth, cv::Mat(), cv::Mat(), static_cast<int>(i));
+      Eigen::Matrix4d T_world_cur = T_world_prev;
+      if (prev) {
+        cv::Mat Rt;
+        // Rt maps points of the source (previous) frame into the destination (current) one.
+        const bool ok = odometry->compute(prev, cur, Rt);
+        if (ok && !Rt.empty()) {
+          Eigen::Matrix4d T_cur_prev;
+          cv::cv2eigen(Rt, T_cur_prev);
+          T_world_cur = T_world_prev * T_cur_prev.inverse();
+        } else {
+          ++failures;  // the pose stays where it was (OpenCV gives no prediction)
+        }
+      }
+      const auto t1 = std::chrono::steady_clock::now();
+      if (prev) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      prev = cur;
+      T_world_prev = T_world_cur;
+      Eigen::Matrix3d R = T_world_cur.topLeftCorner<3, 3>();
+      Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      R = svd.matrixU() * svd.matrixV().transpose();  // re-orthonormalise the accumulated R
+      trajectory.push_back({im.t_ns, SE3(Eigen::Quaterniond(R), T_world_cur.topRightCorner<3, 1>().eval())});
+    }
+    io::write_tum_trajectory(argv[3], trajectory, std::string("peer_opencv_odometry ") + method,
+                             true);
+    double mean = 0.0;
+    for (double v : ms) mean += v;
+    mean = ms.empty() ? 0.0 : mean / static_cast<double>(ms.size());
+    std::vector<double> sorted = ms;
+    std::sort(sorted.begin(), sorted.end());
+    const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
+    std::printf("PEER method=%s frames=%zu failures=%d mean_ms=%.3f median_ms=%.3f\n",
+                method.c_str(), seq.size(), failures, mean, median);
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

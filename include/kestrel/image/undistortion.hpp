@@ -1,0 +1,33 @@
+// Undistortion of images from a camera with radial-tangential distortion (TUM fr1, fr2)
+// onto the pinhole camera with the same K, by precomputed maps (cv::initUndistortRectifyMap).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "kestrel/geometry/pinhole_camera.hpp"
+
+namespace kestrel::image {
+
+class Undistorter {
+ public:
+  /// Precomputes the maps once (fixed-point CV_16SC2 maps: cv::remap's fast path).
+  explicit Undistorter(const PinholeCamera& distorted);
+
+  /// The camera of the undistorted images: same K, no distortion.
+  [[nodiscard]] const PinholeCamera& undistorted_camera() const { return undistorted_; }
+  [[nodiscard]] bool is_identity() const { return identity_; }
+
+  /// Bilinear remap of an intensity (or any float/8-bit) image; copies when is_identity().
+  void undistort_intensity(const cv::Mat& in, cv::Mat& out) const;
+  /// Nearest-neighbour remap of a depth map (interpolating depth would invent surfaces
+  /// between foreground and background); pixels mapping outside the image get 0.
+  void undistort_depth(const cv::Mat& in, cv::Mat& out) const;
+
+ private:
+  PinholeCamera undistorted_;
+  bool identity_ = true;
+  cv::Mat map1_, map2_;      // bilinear (fixed point)
+  cv::Mat map_nearest_;      // CV_16SC2 integer map for nearest-neighbour
+};
+
+}  // namespace kestrel::image

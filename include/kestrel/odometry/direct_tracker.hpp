@@ -1,0 +1,122 @@
+// DirectTracker: dense direct RGB-D odometry (thesis 3.5-3.10): inverse-compositional
+// Lucas-Kanade over an SE(3) twist with global gain/bias, Tukey weights, coarse to fine,
+// aligning each frame to a keyframe (or to the previous frame).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "kestrel/core/time.hpp"
+#include "kestrel/geometry/pinhole_camera.hpp"
+#include "kestrel/geometry/se3.hpp"
+#include "kestrel/image/pyramid.hpp"
+#include "kestrel/image/undistortion.hpp"
+#include "kestrel/odometry/direct_tracker_options.hpp"
+
+namespace kestrel::odometry {
+
+/// One RGB-D frame as the camera gives it (distorted if the camera model has distortion).
+struct RgbdFrame {
+  TimeNs t_ns = 0;
+  cv::Mat image;    ///< CV_8UC3 BGR, CV_8UC1 gray, or CV_32FC1 intensity in [0, 1]
+  cv::Mat depth_m;  ///< CV_32FC1 metres; 0, NaN, inf or negative = no depth
+  /// Time of the depth map when the sensor does not take it with the image (TUM fr1/fr2:
+  /// associated within 20 ms); 0 = simultaneous. See compensate_depth_time_offset.
+  TimeNs depth_t_ns = 0;
+};
+
+enum class TrackFailure : std::uint8_t {
+  kNone = 0,
+  kInvalidInput,     ///< wrong size or type, empty image
+  kTooFewPoints,     ///< the reference has too few usable points (no depth, no texture)
+  kNoOverlap,        ///< too few reference points project into the current image
+  kHighResidual,     ///< robust sigma above max_sigma: the images do not match
+  kLowInlierRatio,   ///< too few residuals within the Tukey cut-off
+  kImplausibleMotion,///< motion to the reference beyond max_translation_m / max_rotation_deg
+  kNumerical,        ///< singular normal equations or non-finite values
+};
+std::string_view to_string(TrackFailure failure);
+
+/// The result of tracking one frame, with its health.
+struct TrackResult {
+  TimeNs t_ns = 0;
+  TrackFailure failure = TrackFailure::kNone;
+  [[nodiscard]] bool ok() const { return failure == TrackFailure::kNone; }
+
+  SE3 T_world_cam;  ///< pose of this frame (world = first frame); on failure the prediction
+  SE3 T_ref_cur;    ///< this frame relative to the reference (keyframe) it was aligned to
+  TimeNs ref_t_ns = 0;  ///< time stamp of that reference frame
+  /// Covariance of xi in T_ref_cur = exp(xi) * estimate, xi = [v, w] in the reference frame:
+  /// sigma^2 (J^T W J)^-1 of the finest level iterated (pose block, gain/bias marginalised).
+  Matrix6d covariance = Matrix6d::Identity();
+
+  bool converged = false;   ///< the finest level stopped by a tolerance, not the cap
+  int iterations = 0;       ///< Gauss-Newton iterations over all levels
+  double sigma = 0.0;       ///< final robust sigma (intensity units, [0, 1] images)
+  double depth_sigma = 0.0; ///< final robust sigma of the geometric residuals (m), 0 if unused
+  int depth_points = 0;     ///< reference points with a geometric residual on that level
+  double depth_inlier_ratio = 0.0;  ///< geometric residuals within c sigma / points with a normal
+  double inlier_ratio = 0.0;  ///< residuals within c sigma / reference points
+  double overlap = 0.0;       ///< reference points that project into the image / all
+  int points = 0;             ///< reference points on the finest level iterated
+  double gain = 0.0;          ///< g of I_ref = (1 + g) I_cur + b
+  double bias = 0.0;
+  bool new_keyframe = false;  ///< this frame became the reference for the next ones
+  bool retried_previous = false;  ///< aligned to the previous frame after the keyframe failed
+  std::string failure_detail;  ///< human-readable, empty when ok
+};
+
+/// Per-level reference data: points and their precomputed IC Jacobians (structure of arrays,
+/// float, reused across keyframes).
+struct ReferenceLevel {
+  float fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+  int count = 0;
+  std::vector<float> x, y, z, intensity;
+  std::array<std::vector<float>, 8> jac;  ///< the 8 columns of J (pose, gain, bias)
+  /// Geometric residual: unit normal and n.P; has_normal = 0 where the depth around the point
+  /// gives no reliable normal (those points are photometric only).
+  std::vector<float> nx, ny, nz, n_dot_p;
+  std::vector<std::uint8_t> has_normal;
+  int normal_count = 0;
+  double median_depth = 0.0;
+};
+
+class DirectTracker {
+ public:
+  /// `camera` is the model of the input images: with distortion, frames are undistorted
+  /// before tracking. Throws InputError for invalid options.
+  explicit DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options = {});
+  ~DirectTracker();
+  DirectTracker(const DirectTracker&) = delete;
+  DirectTracker& operator=(const DirectTracker&) = delete;
+
+  /// Tracks the next frame of a sequence. The first frame (or the first after reset())
+  /// defines the world frame and is returned at the identity.
+  TrackResult track(const RgbdFrame& frame);
+  /// Forgets the keyframe, motion and pose.
+  void reset();
+
+  /// Aligns `current` to `reference` alone, from the guess T_ref_cur (no keyframes, no prior):
+  /// the two-frame problem, for tests and tools. Leaves the sequence state reset.
+  TrackResult align_pair(const RgbdFrame& reference, const RgbdFrame& current,
+                         const SE3& T_ref_cur_guess = SE3());
+
+  [[nodiscard]] const PinholeCamera& camera() const { return camera_; }
+  [[nodiscard]] const DirectTrackerOptions& options() const { return options_; }
+
+  struct Impl;  // buffers and state, opaque (direct_tracker.cpp)
+
+ private:
+  PinholeCamera camera_;  // undistorted
+  DirectTrackerOptions options_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kestrel::odometry

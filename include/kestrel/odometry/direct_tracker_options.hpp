@@ -1,0 +1,102 @@
+// Options of the direct RGB-D tracker (thesis 3.5-3.10 and its future work), with the
+// documented defaults; loadable from YAML and printable so that every run logs what it used.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <yaml-cpp/yaml.h>
+
+#include "kestrel/image/pyramid.hpp"
+
+namespace kestrel::odometry {
+
+struct DirectTrackerOptions {
+  // --- pyramid (thesis 3.10) ---
+  int pyramid_levels = 5;        ///< levels incl. full resolution; each half the previous
+  int finest_level = 0;          ///< the last level iterated on (0 = full resolution)
+  image::PyramidFilter pyramid_filter = image::PyramidFilter::kBox;
+  /// Depth pyramid: depths of a 2x2 block farther than this fraction behind the block's
+  /// nearest depth belong to another surface and are not averaged in.
+  double depth_pyramid_max_relative_spread = 0.03;
+
+  // --- points (depth range: thesis 5.2 future work; selection: an option) ---
+  double min_depth_m = 0.2;  ///< reference points nearer than this are dropped
+  double max_depth_m = 6.0;  ///< ... and farther than this (Kinect depth noise grows as Z^2)
+  /// Reference pixels need at least this gradient magnitude (intensity in [0, 1] per pixel).
+  double min_gradient = 0.004;
+  /// At most this many points per level, the ones of largest gradient (0 = no limit).
+  int max_points_per_level = 6000;
+
+  // --- robust weights (thesis 3.8, 3.10) ---
+  double tukey_c = 4.6851;        ///< Tukey bi-weight cut-off, in units of sigma (95 % eff.)
+  double sigma_freeze_change = 1e-6;  ///< sigma is frozen once it changes by less than this
+  /// Floor of the robust sigma (intensity units): below half an 8-bit grey level the MAD
+  /// estimates quantisation, not noise.
+  double min_sigma = 0.5 / 255.0;
+
+  // --- illumination (thesis 3.9) ---
+  bool estimate_gain_bias = true;  ///< global gain and bias: 8 parameters instead of 6
+
+  // --- geometric residual (thesis 5.2 future work; Kerl et al., "Dense visual SLAM for
+  // RGB-D cameras", IROS 2013): point-to-plane distance between each reference point and
+  // the current frame's depth at its warped pixel, jointly with the photometric residual ---
+  bool use_depth_residual = false;
+  /// Relative weight of the geometric residuals; both kinds are first divided by their own
+  /// robust sigma, so 1 weighs a typical depth residual like a typical photometric one.
+  double depth_residual_weight = 1.0;
+  /// Floor of the geometric robust sigma (m): below ~the TUM PNG's quantisation it is noise
+  /// of the estimate, not of the sensor.
+  double min_depth_sigma_m = 5e-4;
+  /// A depth sample of the current frame is used only if its 2x2 neighbourhood spreads less
+  /// than this fraction of its depth (no interpolation across occlusion boundaries).
+  double depth_residual_max_relative_spread = 0.05;
+
+  /// Unsynchronised RGB-D (Kinect v1: depth and colour up to ~15 ms apart): move the depth
+  /// maps to the colour image's time with the constant-velocity motion, so that the 3D points
+  /// and the geometric residual describe the scene as the image saw it.
+  /// Off by default: on fr1/rpy it made the rotation worse (docs/odometry.md).
+  bool compensate_depth_time_offset = false;
+
+  // --- convergence (thesis 3.10) ---
+  double update_norm_tolerance = 1e-6;    ///< stop a level when |delta theta| falls below
+  double update_change_tolerance = 1e-8;  ///< ... or when it changes by less than this
+  int max_iterations_finest = 300;        ///< on level 0
+  int max_iterations_coarse = 50;         ///< on every other level
+  /// A step that raises the robust cost (at the sigma it was computed with) is undone and
+  /// ends the level: Gauss-Newton has reached the noise floor.
+  bool stop_on_cost_increase = true;
+
+  // --- motion prior and keyframes (thesis 5.2 future work) ---
+  bool constant_velocity_prior = true;  ///< initial guess: the last motion, scaled by dt
+  /// Align to a keyframe (true) or always to the previous frame (false).
+  bool use_keyframes = true;
+  /// A new keyframe is taken after a frame whose overlap (fraction of the keyframe's points
+  /// that land inside it) falls below this, ...
+  double keyframe_min_overlap = 0.8;
+  double keyframe_max_rotation_deg = 5.0;      ///< ... or that is rotated by more, ...
+  double keyframe_max_translation_rel = 0.05;  ///< ... or moved by more x median depth.
+  /// When the alignment to the keyframe fails, try the previous frame (closer in time, and
+  /// blurred alike in a fast motion) before reporting a failure.
+  bool retry_previous_frame = false;
+
+  // --- failure detection ---
+  double min_overlap = 0.3;       ///< fewer of the points inside the image: failure
+  double min_inlier_ratio = 0.3;  ///< fewer points with |r| < c sigma: failure
+  double max_sigma = 0.1;         ///< larger final robust sigma (intensity units): failure
+  int min_points = 100;           ///< fewer usable points on a level: failure
+  double max_translation_m = 0.5;   ///< larger motion to the reference: failure
+  double max_rotation_deg = 45.0;   ///< ditto
+
+  /// Throws InputError naming the first invalid field.
+  void validate() const;
+  /// Every field as "name: value" lines (valid YAML, loadable by from_yaml()).
+  [[nodiscard]] std::string to_yaml() const;
+  /// Fields present in `node` override the defaults; unknown keys are errors (typos).
+  /// `source` names the file in messages.
+  static DirectTrackerOptions from_yaml(const YAML::Node& node, const std::string& source);
+  /// Loads a file: the options may be at the top level or under a `tracker:` key.
+  static DirectTrackerOptions load(const std::filesystem::path& path);
+};
+
+}  // namespace kestrel::odometry

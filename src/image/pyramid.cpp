@@ -1,0 +1,103 @@
+// Intensity and depth pyramids (thesis 3.10).
+#include "kestrel/image/pyramid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+namespace kestrel::image {
+
+std::string_view to_string(PyramidFilter filter) {
+  return filter == PyramidFilter::kBox ? "box" : "gaussian";
+}
+
+PyramidFilter pyramid_filter_from_string(std::string_view name) {
+  if (name == "box") return PyramidFilter::kBox;
+  if (name == "gaussian") return PyramidFilter::kGaussian;
+  throw std::invalid_argument("pyramid filter '" + std::string(name) +
+                              "': expected 'box' or 'gaussian'");
+}
+
+cv::Size half_size(cv::Size size) { return {size.width / 2, size.height / 2}; }
+
+namespace {
+
+// 2x2 mean into out (sized half_size(in)). Plain loops: GCC vectorises the inner one.
+void mean_2x2(const cv::Mat& in, cv::Mat& out) {
+  const cv::Size s = half_size(in.size());
+  out.create(s, CV_32FC1);
+  for (int y = 0; y < s.height; ++y) {
+    const float* r0 = in.ptr<float>(2 * y);
+    const float* r1 = in.ptr<float>(2 * y + 1);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < s.width; ++x) {
+      o[x] = 0.25F * ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1]));
+    }
+  }
+}
+
+}  // namespace
+
+void downsample_intensity(const cv::Mat& in, cv::Mat& out, PyramidFilter filter,
+                          cv::Mat& scratch) {
+  if (in.type() != CV_32FC1 || in.cols < 2 || in.rows < 2) {
+    throw std::invalid_argument("downsample_intensity: expected CV_32FC1 of at least 2x2");
+  }
+  if (filter == PyramidFilter::kGaussian) {
+    cv::GaussianBlur(in, scratch, cv::Size(5, 5), 1.0, 1.0, cv::BORDER_REFLECT_101);
+    mean_2x2(scratch, out);
+  } else {
+    mean_2x2(in, out);
+  }
+}
+
+void downsample_depth(const cv::Mat& in, cv::Mat& out, float max_relative_spread) {
+  if (in.type() != CV_32FC1 || in.cols < 2 || in.rows < 2) {
+    throw std::invalid_argument("downsample_depth: expected CV_32FC1 of at least 2x2");
+  }
+  const cv::Size s = half_size(in.size());
+  out.create(s, CV_32FC1);
+  for (int y = 0; y < s.height; ++y) {
+    const float* r0 = in.ptr<float>(2 * y);
+    const float* r1 = in.ptr<float>(2 * y + 1);
+    float* o = out.ptr<float>(y);
+    // Branch-free (selects only) so that the compiler vectorises it: it runs on every frame
+    // when the tracker uses the geometric residual.
+    for (int x = 0; x < s.width; ++x) {
+      const float d[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
+      // Nearest valid depth of the block; !(v > 0) also rejects NaN.
+      float z_min = INFINITY;
+      for (float v : d) z_min = (v > 0.0F && v < INFINITY && v < z_min) ? v : z_min;
+      const float limit = z_min * (1.0F + max_relative_spread);
+      float sum = 0.0F;
+      float n = 0.0F;
+      for (float v : d) {
+        const bool use = v > 0.0F && v <= limit && v < INFINITY;
+        sum += use ? v : 0.0F;
+        n += use ? 1.0F : 0.0F;
+      }
+      o[x] = n > 0.0F ? sum / n : 0.0F;
+    }
+  }
+}
+
+void IntensityPyramid::build(const cv::Mat& level0, int levels, PyramidFilter filter) {
+  if (levels < 1) throw std::invalid_argument("IntensityPyramid: levels must be >= 1");
+  levels_.resize(static_cast<std::size_t>(levels));
+  level0.copyTo(levels_[0]);
+  for (std::size_t l = 1; l < levels_.size(); ++l) {
+    downsample_intensity(levels_[l - 1], levels_[l], filter, scratch_);
+  }
+}
+
+void DepthPyramid::build(const cv::Mat& level0_depth_m, int levels, float max_relative_spread) {
+  if (levels < 1) throw std::invalid_argument("DepthPyramid: levels must be >= 1");
+  levels_.resize(static_cast<std::size_t>(levels));
+  level0_depth_m.copyTo(levels_[0]);
+  for (std::size_t l = 1; l < levels_.size(); ++l) {
+    downsample_depth(levels_[l - 1], levels_[l], max_relative_spread);
+  }
+}
+
+}  // namespace kestrel::image

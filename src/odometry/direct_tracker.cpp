@@ -1,0 +1,955 @@
+// DirectTracker: inverse-compositional alignment over SE(3) + gain/bias (thesis 3.5-3.10),
+// with keyframes and a constant-velocity prior (thesis 5.2). See warp_jacobian.hpp for the
+// model, its Jacobian and the IC update.
+#include "kestrel/odometry/direct_tracker.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <numbers>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/image/gradient.hpp"
+#include "kestrel/image/intensity.hpp"
+#include "kestrel/image/interpolation.hpp"
+#include "kestrel/odometry/robust_weights.hpp"
+#include "kestrel/odometry/warp_jacobian.hpp"
+
+namespace kestrel::odometry {
+
+std::string_view to_string(TrackFailure failure) {
+  switch (failure) {
+    case TrackFailure::kNone: return "none";
+    case TrackFailure::kInvalidInput: return "invalid_input";
+    case TrackFailure::kTooFewPoints: return "too_few_points";
+    case TrackFailure::kNoOverlap: return "no_overlap";
+    case TrackFailure::kHighResidual: return "high_residual";
+    case TrackFailure::kLowInlierRatio: return "low_inlier_ratio";
+    case TrackFailure::kImplausibleMotion: return "implausible_motion";
+    case TrackFailure::kNumerical: return "numerical";
+  }
+  return "unknown";
+}
+
+namespace {
+
+constexpr int kLanes = 8;  // accumulation lanes: one AVX register of floats
+
+int pad_to_lanes(int n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+double rotation_angle_deg(const SE3& T) {
+  return T.so3().log().norm() * 180.0 / std::numbers::pi;
+}
+
+}  // namespace
+
+struct DirectTracker::Impl {
+  image::Undistorter undistorter;
+  std::vector<PinholeCamera> level_cameras;
+
+  // Current frame (reused buffers).
+  cv::Mat intensity_raw, intensity, depth;
+  image::IntensityPyramid pyramid;
+  // The previous frame's (swapped, not copied): the fallback reference after a failure.
+  cv::Mat prev_depth;
+  image::IntensityPyramid prev_pyramid;
+  image::DepthPyramid prev_depth_pyramid;
+
+  // Reference (keyframe) data.
+  std::vector<ReferenceLevel> ref;
+  bool has_ref = false;
+  TimeNs ref_t_ns = 0;
+  SE3 T_world_ref;
+
+  // Reference construction scratch.
+  image::DepthPyramid depth_pyramid;
+  cv::Mat gx, gy;
+  std::vector<std::pair<float, int>> candidates;
+  std::vector<float> depth_scratch;
+
+  // Per-iteration buffers (sized to the largest level, padded to kLanes).
+  std::vector<float> residual, weight, abs_residual;
+  std::vector<std::uint8_t> valid;
+  std::vector<float> geo_residual, geo_weight;
+  std::array<std::vector<float>, 6> geo_jac;  // J_g at the current estimate (warp_jacobian.hpp)
+  std::vector<std::uint8_t> geo_valid;
+
+  // T_rgb_depth of the current frame: maps its depth map's points (taken at depth_t_ns) into
+  // the camera at the image's time (identity when simultaneous or without a motion estimate).
+  SE3 T_rgb_depth;
+  bool depth_time_shift = false;
+
+  // Sequence state.
+  bool has_prev = false;
+  bool has_velocity = false;
+  SE3 T_world_prev;
+  SE3 velocity;  // T_prevprev_prev
+  TimeNs t_prev = 0;
+  TimeNs dt_prev = 0;
+
+  explicit Impl(const PinholeCamera& cam) : undistorter(cam) {}
+};
+
+DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options)
+    : camera_(camera.without_distortion()), options_(options) {
+  options_.validate();
+  impl_ = std::make_unique<Impl>(camera);
+  double s = 1.0;
+  for (int l = 0; l < options_.pyramid_levels; ++l, s *= 0.5) {
+    impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
+  }
+  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
+}
+
+DirectTracker::~DirectTracker() = default;
+
+void DirectTracker::reset() {
+  impl_->has_ref = false;
+  impl_->has_prev = false;
+  impl_->has_velocity = false;
+  impl_->depth_time_shift = false;
+  impl_->T_rgb_depth = SE3();
+}
+
+namespace {
+
+// Checks a frame against the camera; returns an empty string when it can be used.
+std::string check_frame(const RgbdFrame& f, const PinholeCamera& cam) {
+  if (f.image.empty()) return "empty image";
+  if (f.depth_m.empty()) return "empty depth map";
+  const int t = f.image.type();
+  if (t != CV_8UC3 && t != CV_8UC1 && t != CV_32FC1) {
+    return "image type must be CV_8UC3, CV_8UC1 or CV_32FC1";
+  }
+  if (f.depth_m.type() != CV_32FC1) return "depth type must be CV_32FC1 (metres)";
+  if (f.image.cols != cam.width() || f.image.rows != cam.height() ||
+      f.depth_m.size() != f.image.size()) {
+    return "frame size " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
+           " / depth " + std::to_string(f.depth_m.cols) + "x" + std::to_string(f.depth_m.rows) +
+           " does not match the camera's " + std::to_string(cam.width()) + "x" +
+           std::to_string(cam.height());
+  }
+  return {};
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// Preparation: intensity, undistortion, pyramid of the current frame.
+namespace {
+
+void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o);
+
+}  // namespace
+
+struct TrackerAccess {
+  // Reference building: gradients, selection and the precomputed IC Jacobians per level.
+  static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                              const std::vector<PinholeCamera>& cams) {
+    // With the geometric residual, prepare_frame() already built this frame's depth pyramid.
+    if (!o.use_depth_residual) {
+      m.depth_pyramid.build(m.depth, o.pyramid_levels,
+                            static_cast<float>(o.depth_pyramid_max_relative_spread));
+    }
+    std::size_t max_count = 0;
+    for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
+      ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
+      const cv::Mat& img = m.pyramid.level(l);
+      const cv::Mat& dep = m.depth_pyramid.level(l);
+      const PinholeCamera& cam = cams[static_cast<std::size_t>(l)];
+      L.fx = static_cast<float>(cam.fx());
+      L.fy = static_cast<float>(cam.fy());
+      L.cx = static_cast<float>(cam.cx());
+      L.cy = static_cast<float>(cam.cy());
+      L.width = img.cols;
+      L.height = img.rows;
+      image::central_gradients(img, m.gx, m.gy);
+
+      const auto zmin = static_cast<float>(o.min_depth_m);
+      const auto zmax = static_cast<float>(o.max_depth_m);
+      const auto g2min = static_cast<float>(o.min_gradient * o.min_gradient);
+      m.candidates.clear();
+      for (int y = 1; y < img.rows - 1; ++y) {
+        const float* d = dep.ptr<float>(y);
+        const float* gxr = m.gx.ptr<float>(y);
+        const float* gyr = m.gy.ptr<float>(y);
+        for (int x = 1; x < img.cols - 1; ++x) {
+          const float z = d[x];
+          const float g2 = gxr[x] * gxr[x] + gyr[x] * gyr[x];
+          if (z >= zmin && z <= zmax && g2 >= g2min && g2 > 0.0F) {
+            m.candidates.emplace_back(g2, y * img.cols + x);
+          }
+        }
+      }
+      const auto cap = static_cast<std::size_t>(o.max_points_per_level);
+      if (cap > 0 && m.candidates.size() > cap) {
+        std::nth_element(m.candidates.begin(), m.candidates.begin() + static_cast<long>(cap),
+                         m.candidates.end(),
+                         [](const auto& a, const auto& b) { return a.first > b.first; });
+        m.candidates.resize(cap);
+        // Back in image order: the warp then reads the current image roughly sequentially.
+        std::sort(m.candidates.begin(), m.candidates.end(),
+                  [](const auto& a, const auto& b) { return a.second < b.second; });
+      }
+      const int n = static_cast<int>(m.candidates.size());
+      const auto padded = static_cast<std::size_t>(pad_to_lanes(n));
+      L.count = n;
+      L.x.assign(padded, 0.0F);
+      L.y.assign(padded, 0.0F);
+      L.z.assign(padded, 1.0F);
+      L.intensity.assign(padded, 0.0F);
+      for (auto& col : L.jac) col.assign(padded, 0.0F);
+      L.nx.assign(padded, 0.0F);
+      L.ny.assign(padded, 0.0F);
+      L.nz.assign(padded, 0.0F);
+      L.n_dot_p.assign(padded, 0.0F);
+      L.has_normal.assign(padded, 0);
+      L.normal_count = 0;
+      m.depth_scratch.clear();
+      const float* img_data = img.ptr<float>();
+      const float* gx_data = m.gx.ptr<float>();
+      const float* gy_data = m.gy.ptr<float>();
+      const float* dep_data = dep.ptr<float>();
+      for (int i = 0; i < n; ++i) {
+        const int idx = m.candidates[static_cast<std::size_t>(i)].second;
+        const int u = idx % img.cols;
+        const int v = idx / img.cols;
+        double z = dep_data[idx];
+        Eigen::Vector3d P((u - cam.cx()) / cam.fx() * z, (v - cam.cy()) / cam.fy() * z, z);
+        // Depth taken at another time: read it where the pixel's ray was then (the rotation's
+        // infinite homography), and move that point to the image's time.
+        int ud = u, vd = v;
+        bool shifted = false;
+        if (m.depth_time_shift) {
+          const Eigen::Vector3d ray = m.T_rgb_depth.so3().inverse() *
+              Eigen::Vector3d((u - cam.cx()) / cam.fx(), (v - cam.cy()) / cam.fy(), 1.0);
+          if (ray.z() > 1e-6) {
+            const auto uu = static_cast<int>(std::lround(cam.fx() * ray.x() / ray.z() + cam.cx()));
+            const auto vv = static_cast<int>(std::lround(cam.fy() * ray.y() / ray.z() + cam.cy()));
+            if (uu >= 0 && vv >= 0 && uu < img.cols && vv < img.rows) {
+              const double zd = dep.at<float>(vv, uu);
+              if (zd >= o.min_depth_m && zd <= o.max_depth_m) {
+                ud = uu;
+                vd = vv;
+                z = zd;
+                P = m.T_rgb_depth * Eigen::Vector3d((ud - cam.cx()) / cam.fx() * z,
+                                                    (vd - cam.cy()) / cam.fy() * z, z);
+                shifted = true;
+              }
+            }
+          }
+        }
+        const Vector8d J = photometric_jacobian(P, gx_data[idx], gy_data[idx], cam.fx(),
+                                                cam.fy(), img_data[idx]);
+        const auto k = static_cast<std::size_t>(i);
+        L.x[k] = static_cast<float>(P.x());
+        L.y[k] = static_cast<float>(P.y());
+        L.z[k] = static_cast<float>(P.z());
+        L.intensity[k] = img_data[idx];
+        for (std::size_t c = 0; c < 8; ++c) L.jac[c][k] = static_cast<float>(J(static_cast<long>(c)));
+        if (o.use_depth_residual) {
+          Eigen::Vector3d normal;
+          const Eigen::Vector3d P_depth = shifted ? m.T_rgb_depth.inverse() * P : P;
+          if ((!m.depth_time_shift || shifted) &&
+              normal_at(dep, cam, ud, vd, static_cast<float>(o.depth_residual_max_relative_spread),
+                        P_depth, normal)) {
+            if (shifted) normal = m.T_rgb_depth.so3() * normal;
+            L.nx[k] = static_cast<float>(normal.x());
+            L.ny[k] = static_cast<float>(normal.y());
+            L.nz[k] = static_cast<float>(normal.z());
+            L.n_dot_p[k] = static_cast<float>(normal.dot(P));
+            L.has_normal[k] = 1;
+            ++L.normal_count;
+          }
+        }
+        m.depth_scratch.push_back(static_cast<float>(z));
+      }
+      if (!m.depth_scratch.empty()) {
+        auto mid = m.depth_scratch.begin() + static_cast<long>(m.depth_scratch.size() / 2);
+        std::nth_element(m.depth_scratch.begin(), mid, m.depth_scratch.end());
+        L.median_depth = *mid;
+      } else {
+        L.median_depth = 0.0;
+      }
+      max_count = std::max(max_count, padded);
+    }
+    if (m.residual.size() < max_count) {
+      m.residual.resize(max_count);
+      m.weight.resize(max_count);
+      m.abs_residual.resize(max_count);
+      m.valid.resize(max_count);
+      m.geo_residual.resize(max_count);
+      m.geo_weight.resize(max_count);
+      m.geo_valid.resize(max_count);
+      for (auto& col : m.geo_jac) col.assign(max_count, 0.0F);
+    }
+    m.has_ref = true;
+  }
+
+  // Unit normal of the surface at pixel (u, v) of a depth level, from the back-projected
+  // neighbours (central differences), facing the camera. False near depth discontinuities,
+  // holes, and at grazing angles, where a normal is not reliable.
+  static bool normal_at(const cv::Mat& dep, const PinholeCamera& cam, int u, int v,
+                        float max_spread, const Eigen::Vector3d& P, Eigen::Vector3d& n) {
+    if (u < 1 || v < 1 || u >= dep.cols - 1 || v >= dep.rows - 1) return false;
+    const float z0 = dep.at<float>(v, u);
+    const float zs[4] = {dep.at<float>(v, u - 1), dep.at<float>(v, u + 1), dep.at<float>(v - 1, u),
+                         dep.at<float>(v + 1, u)};
+    for (float z : zs) {
+      if (!(z > 0.0F && z < 1e3F) || std::fabs(z - z0) > 2.0F * max_spread * z0) return false;
+    }
+    auto back = [&](int uu, int vv, double z) {
+      return Eigen::Vector3d((uu - cam.cx()) / cam.fx() * z, (vv - cam.cy()) / cam.fy() * z, z);
+    };
+    const Eigen::Vector3d dx = back(u + 1, v, zs[1]) - back(u - 1, v, zs[0]);
+    const Eigen::Vector3d dy = back(u, v + 1, zs[3]) - back(u, v - 1, zs[2]);
+    n = dx.cross(dy);
+    const double len = n.norm();
+    if (!(len > 0.0)) return false;
+    n /= len;
+    if (n.dot(P) > 0.0) n = -n;
+    return -n.dot(P) > 0.2 * P.norm();  // not grazing: within ~78 deg of the viewing ray
+  }
+
+  // Point-to-plane residuals (warp_jacobian.hpp) of the level's points with a normal, against
+  // the current depth level bilinearly interpolated where its 2x2 cell is one surface.
+  // Returns the number of valid residuals.
+  static int warp_geometric(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& dep,
+                            const SE3& T_cur_ref, float max_spread) {
+    const Eigen::Matrix3f R = T_cur_ref.rotation_matrix().cast<float>();
+    const Eigen::Vector3f t = T_cur_ref.translation().cast<float>();
+    const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
+    const auto umax = static_cast<float>(dep.cols - 1);
+    const auto vmax = static_cast<float>(dep.rows - 1);
+    const float* data = dep.ptr<float>();
+    const auto stride = static_cast<std::ptrdiff_t>(dep.step1());
+    const float spread = 1.0F + max_spread;
+    const bool shift = m.depth_time_shift;
+    const Eigen::Matrix3f Rs = m.T_rgb_depth.rotation_matrix().cast<float>();
+    const Eigen::Vector3f ts = m.T_rgb_depth.translation().cast<float>();
+    float* res = m.geo_residual.data();
+    std::uint8_t* val = m.geo_valid.data();
+    int count = 0;
+    for (int i = 0; i < L.count; ++i) {
+      val[i] = 0;
+      res[i] = 0.0F;
+      if (!L.has_normal[static_cast<std::size_t>(i)]) continue;
+      const Eigen::Vector3f P(L.x[static_cast<std::size_t>(i)], L.y[static_cast<std::size_t>(i)],
+                              L.z[static_cast<std::size_t>(i)]);
+      const Eigen::Vector3f X = R * P + t;
+      if (!(X.z() > 1e-3F)) continue;
+      float u = fx * X.x() / X.z() + cx;
+      float v = fy * X.y() / X.z() + cy;
+      if (shift) {  // where the ray was when the depth map was taken
+        const Eigen::Vector3f ray = Rs.transpose() * Eigen::Vector3f((u - cx) / fx, (v - cy) / fy, 1.0F);
+        if (!(ray.z() > 1e-6F)) continue;
+        u = fx * ray.x() / ray.z() + cx;
+        v = fy * ray.y() / ray.z() + cy;
+      }
+      if (!(u >= 0.0F && u < umax && v >= 0.0F && v < vmax)) continue;
+      const int u0 = static_cast<int>(u);
+      const int v0 = static_cast<int>(v);
+      const float* p = data + v0 * stride + u0;
+      const float z00 = p[0], z01 = p[1], z10 = p[stride], z11 = p[stride + 1];
+      if (!(z00 > 0.0F && z01 > 0.0F && z10 > 0.0F && z11 > 0.0F && z00 < 1e3F && z01 < 1e3F &&
+            z10 < 1e3F && z11 < 1e3F)) {
+        continue;
+      }
+      const float zmin = std::min(std::min(z00, z01), std::min(z10, z11));
+      const float zmax = std::max(std::max(z00, z01), std::max(z10, z11));
+      if (zmax > spread * zmin) continue;
+      const float a = u - static_cast<float>(u0);
+      const float b = v - static_cast<float>(v0);
+      const float z = (1.0F - b) * ((1.0F - a) * z00 + a * z01) + b * ((1.0F - a) * z10 + a * z11);
+      // Q_cur back-projected at (u, v); into the reference frame: R^T (Q_cur - t).
+      Eigen::Vector3f Q((u - cx) / fx * z, (v - cy) / fy * z, z);
+      if (shift) Q = Rs * Q + ts;
+      const Eigen::Vector3f Q_ref = R.transpose() * (Q - t);
+      const auto k = static_cast<std::size_t>(i);
+      const float nx = L.nx[k], ny = L.ny[k], nz = L.nz[k];
+      res[i] = nx * Q_ref.x() + ny * Q_ref.y() + nz * Q_ref.z() - L.n_dot_p[k];
+      // J_g = -[n, Q_ref x n] (point_to_plane_pose_jacobian), in place for the accumulation.
+      m.geo_jac[0][k] = -nx;
+      m.geo_jac[1][k] = -ny;
+      m.geo_jac[2][k] = -nz;
+      m.geo_jac[3][k] = -(Q_ref.y() * nz - Q_ref.z() * ny);
+      m.geo_jac[4][k] = -(Q_ref.z() * nx - Q_ref.x() * nz);
+      m.geo_jac[5][k] = -(Q_ref.x() * ny - Q_ref.y() * nx);
+      val[i] = 1;
+      ++count;
+    }
+    return count;
+  }
+
+  // Warp + bilinear sample + residual for every reference point of level L under T_cur_ref.
+  // Returns the number of points that land inside the image.
+  static int warp_residuals(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& cur,
+                            const SE3& T_cur_ref, float alpha, float beta) {
+    const Eigen::Matrix3f R = T_cur_ref.rotation_matrix().cast<float>();
+    const Eigen::Vector3f t = T_cur_ref.translation().cast<float>();
+    const float r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2);
+    const float r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
+    const float r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
+    const float t0 = t.x(), t1 = t.y(), t2 = t.z();
+    const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
+    const auto umax = static_cast<float>(cur.cols - 1);
+    const auto vmax = static_cast<float>(cur.rows - 1);
+    const float* data = cur.ptr<float>();
+    const int stride = static_cast<int>(cur.step1());
+    const float* px = L.x.data();
+    const float* py = L.y.data();
+    const float* pz = L.z.data();
+    const float* iref = L.intensity.data();
+    float* res = m.residual.data();
+    std::uint8_t* val = m.valid.data();
+    int inside_count = 0;
+    for (int i = 0; i < L.count; ++i) {
+      const float X = r00 * px[i] + r01 * py[i] + r02 * pz[i] + t0;
+      const float Y = r10 * px[i] + r11 * py[i] + r12 * pz[i] + t1;
+      const float Z = r20 * px[i] + r21 * py[i] + r22 * pz[i] + t2;
+      const float inv_z = 1.0F / Z;
+      float u = fx * X * inv_z + cx;
+      float v = fy * Y * inv_z + cy;
+      // NaN-safe: every comparison with NaN is false.
+      const bool inside = Z > 1e-3F && u >= 0.0F && u < umax && v >= 0.0F && v < vmax;
+      u = inside ? u : 0.0F;
+      v = inside ? v : 0.0F;
+      const float ic = image::sample_bilinear_unchecked(data, stride, u, v);
+      res[i] = inside ? alpha * ic + beta - iref[i] : 0.0F;
+      val[i] = inside ? 1 : 0;
+      inside_count += inside ? 1 : 0;
+    }
+    return inside_count;
+  }
+};
+
+namespace {
+
+void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o) {
+  std::swap(m.pyramid, m.prev_pyramid);
+  std::swap(m.depth, m.prev_depth);
+  std::swap(m.depth_pyramid, m.prev_depth_pyramid);
+  image::to_intensity(f.image, m.intensity_raw);
+  m.undistorter.undistort_intensity(m.intensity_raw, m.intensity);
+  m.undistorter.undistort_depth(f.depth_m, m.depth);
+  m.pyramid.build(m.intensity, o.pyramid_levels, o.pyramid_filter);
+  if (o.use_depth_residual) {
+    m.depth_pyramid.build(m.depth, o.pyramid_levels,
+                          static_cast<float>(o.depth_pyramid_max_relative_spread));
+  }
+}
+
+struct LevelStats {
+  double sigma = 0.0;
+  int inliers = 0;
+  int geo_inliers = 0;
+  int inside = 0;
+  Matrix8d H = Matrix8d::Zero();
+};
+
+}  // namespace
+
+namespace {
+
+// Weighted normal equations with lane accumulators (vectorisable, no reduction across lanes).
+// Adds sum w J J^T and sum w J r over the first C columns to H and g.
+template <int C>
+void accumulate_normal_equations(const float* const* J, int count, const float* w, const float* r,
+                                 Matrix8d& H, Vector8d& g) {
+  constexpr int kH = C * (C + 1) / 2;
+  alignas(32) float acc[kH + C][kLanes] = {};
+  const int n = pad_to_lanes(count);
+  for (int i = 0; i < n; i += kLanes) {
+    float wj[C][kLanes];
+    for (int a = 0; a < C; ++a) {
+      for (int k = 0; k < kLanes; ++k) wj[a][k] = w[i + k] * J[a][i + k];
+    }
+    int term = 0;
+    for (int a = 0; a < C; ++a) {
+      for (int b = a; b < C; ++b, ++term) {
+        for (int k = 0; k < kLanes; ++k) acc[term][k] += wj[a][k] * J[b][i + k];
+      }
+    }
+    for (int a = 0; a < C; ++a) {
+      for (int k = 0; k < kLanes; ++k) acc[kH + a][k] += wj[a][k] * r[i + k];
+    }
+  }
+  auto sum = [&](int term) {
+    double s = 0.0;
+    for (int k = 0; k < kLanes; ++k) s += static_cast<double>(acc[term][k]);
+    return s;
+  };
+  int term = 0;
+  for (int a = 0; a < C; ++a) {
+    for (int b = a; b < C; ++b, ++term) {
+      H(a, b) += sum(term);
+      if (b != a) H(b, a) += sum(term);
+    }
+  }
+  for (int a = 0; a < C; ++a) g(a) += sum(kH + a);
+}
+
+void accumulate_normal_equations(const ReferenceLevel& L, const float* w, const float* r,
+                                 const std::array<std::vector<float>, 6>& geo_jac,
+                                 const float* w_geo, const float* r_geo, Matrix8d& H, Vector8d& g) {
+  H.setZero();
+  g.setZero();
+  const float* J[8];
+  for (std::size_t c = 0; c < 8; ++c) J[c] = L.jac[c].data();
+  accumulate_normal_equations<8>(J, L.count, w, r, H, g);
+  if (w_geo != nullptr) {
+    const float* Jg[6];
+    for (std::size_t c = 0; c < 6; ++c) Jg[c] = geo_jac[c].data();
+    accumulate_normal_equations<6>(Jg, L.count, w_geo, r_geo, H, g);
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// Alignment of the prepared current frame to the reference, coarse to fine.
+namespace {
+
+struct AlignOutcome {
+  SE3 T_cur_ref;
+  double alpha = 1.0, beta = 0.0;
+  TrackResult result;  // health fields only
+};
+
+}  // namespace
+
+struct AlignRunner {
+  static AlignOutcome align(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                            const SE3& T_cur_ref_guess) {
+    AlignOutcome out;
+    TrackResult& res = out.result;
+    SE3 T = T_cur_ref_guess;
+    double alpha = 1.0, beta = 0.0;
+    const auto c = static_cast<float>(o.tukey_c);
+    const float max_cost = c * c / 6.0F;
+    const int params = o.estimate_gain_bias ? 8 : 6;
+    bool finest_done = false;
+
+    for (int l = o.pyramid_levels - 1; l >= o.finest_level; --l) {
+      const ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
+      const bool finest = (l == o.finest_level);
+      if (L.count < o.min_points) {
+        if (!finest) continue;  // a coarse level without enough points is skipped
+        res.failure = TrackFailure::kTooFewPoints;
+        res.failure_detail = "reference has " + std::to_string(L.count) + " usable points on level " +
+                             std::to_string(l) + " (min_points " + std::to_string(o.min_points) + ")";
+        out.T_cur_ref = T;
+        return out;
+      }
+      const cv::Mat& cur = m.pyramid.level(l);
+      const int max_iter = (l == 0) ? o.max_iterations_finest : o.max_iterations_coarse;
+      const int n = L.count;
+      const int n_padded = pad_to_lanes(n);
+      for (int i = n; i < n_padded; ++i) {
+        m.weight[static_cast<std::size_t>(i)] = 0.0F;
+        m.residual[static_cast<std::size_t>(i)] = 0.0F;
+        m.geo_weight[static_cast<std::size_t>(i)] = 0.0F;
+        m.geo_residual[static_cast<std::size_t>(i)] = 0.0F;
+      }
+      // The geometric residual joins where enough points have a normal.
+      const bool geo = o.use_depth_residual && o.depth_residual_weight > 0.0 &&
+                       L.normal_count >= o.min_points;
+      const cv::Mat& cur_depth = m.depth_pyramid.level(l);
+      const auto geo_lambda = static_cast<float>(o.depth_residual_weight);
+      const auto geo_spread = static_cast<float>(o.depth_residual_max_relative_spread);
+      // Geometric cost: points with a normal whose sample is missing cost the maximum, like
+      // photometric points outside the image; points without a normal do not take part.
+      auto geo_cost = [&](float inv_sg) {
+        double cost = 0.0;
+        const float* rg = m.geo_residual.data();
+        const std::uint8_t* vg = m.geo_valid.data();
+        for (int i = 0; i < n; ++i) {
+          if (vg[i]) {
+            cost += static_cast<double>(tukey_cost(rg[i] * inv_sg, c));
+          } else if (L.has_normal[static_cast<std::size_t>(i)]) {
+            cost += static_cast<double>(max_cost);
+          }
+        }
+        return static_cast<double>(geo_lambda) * cost;
+      };
+
+      double sigma = 0.0;
+      bool sigma_frozen = false;
+      double geo_sigma = 0.0;
+      bool geo_sigma_frozen = false;
+      int geo_count = 0;
+      double prev_cost = 0.0;
+      double prev_step_norm = -1.0;
+      SE3 T_prev = T;
+      double alpha_prev = alpha, beta_prev = beta;
+      LevelStats stats;
+      bool level_converged = false;
+      int inside = 0;
+      int halvings = 0;
+      Vector8d last_step = Vector8d::Zero();
+      // Inverse-compositional update (warp_jacobian.hpp).
+      auto apply_step = [&](const SE3& T0, double alpha0, double beta0, const Vector8d& d) {
+        T = T0 * SE3::exp(-d.head<6>());
+        alpha = alpha0;
+        beta = beta0;
+        if (o.estimate_gain_bias) {
+          const double eta = 1.0 + d(6);
+          alpha = alpha0 / eta;
+          beta = (beta0 - d(7)) / eta;
+        }
+      };
+
+      for (int it = 0; it < max_iter; ++it) {
+        inside = TrackerAccess::warp_residuals(m, L, cur, T, static_cast<float>(alpha),
+                                               static_cast<float>(beta));
+        if (geo) geo_count = TrackerAccess::warp_geometric(m, L, cur_depth, T, geo_spread);
+        ++res.iterations;
+        if (inside < o.min_points) {
+          if (it > 0) {  // the last step left the image: undo it and stop this level
+            T = T_prev;  // `stats` still describe T_prev: it has not been updated yet
+            alpha = alpha_prev;
+            beta = beta_prev;
+            inside = stats.inside;
+            break;
+          }
+          res.failure = TrackFailure::kNoOverlap;
+          res.failure_detail = std::to_string(inside) + " of " + std::to_string(n) +
+                               " reference points land in the image on level " + std::to_string(l);
+          res.overlap = static_cast<double>(inside) / n;
+          out.T_cur_ref = T;
+          return out;
+        }
+        const float* r = m.residual.data();
+        const std::uint8_t* val = m.valid.data();
+
+        // Step acceptance: the robust cost at the sigma the step was computed with. A step that
+        // raises it is halved (up to 3 times: far from the optimum Gauss-Newton overshoots);
+        // if it still does, the level ends at the previous pose (the noise floor is reached).
+        if (it > 0 && o.stop_on_cost_increase) {
+          const auto inv_sigma = static_cast<float>(1.0 / sigma);
+          double cost = 0.0;
+          for (int i = 0; i < n; ++i) {
+            cost += static_cast<double>(val[i] ? tukey_cost(r[i] * inv_sigma, c) : max_cost);
+          }
+          if (geo) cost += geo_cost(static_cast<float>(1.0 / geo_sigma));
+          if (cost > prev_cost) {
+            if (halvings < 3 && last_step.head(params).norm() > 10.0 * o.update_norm_tolerance) {
+              ++halvings;
+              last_step *= 0.5;
+              apply_step(T_prev, alpha_prev, beta_prev, last_step);
+              continue;
+            }
+            T = T_prev;  // `stats` still describe T_prev: it has not been updated yet
+            alpha = alpha_prev;
+            beta = beta_prev;
+            inside = stats.inside;
+            level_converged = true;
+            break;
+          }
+        }
+        halvings = 0;
+
+        // Robust scale (thesis eq. 3.40), frozen once it settles (thesis 3.10).
+        if (!sigma_frozen) {
+          int mvalid = 0;
+          float* absr = m.abs_residual.data();
+          for (int i = 0; i < n; ++i) {
+            absr[mvalid] = std::fabs(r[i]);
+            mvalid += val[i];
+          }
+          double s = robust_sigma(std::span<float>(absr, static_cast<std::size_t>(mvalid)), params);
+          s = std::max(s, o.min_sigma);
+          if (it > 0 && std::fabs(s - sigma) < o.sigma_freeze_change) sigma_frozen = true;
+          sigma = s;
+        }
+        // The geometric residuals' own robust scale, by the same rule (in metres).
+        if (geo && !geo_sigma_frozen) {
+          int mvalid = 0;
+          float* absr = m.abs_residual.data();
+          const float* rg = m.geo_residual.data();
+          const std::uint8_t* vg = m.geo_valid.data();
+          for (int i = 0; i < n; ++i) {
+            absr[mvalid] = std::fabs(rg[i]);
+            mvalid += vg[i];
+          }
+          double s = robust_sigma(std::span<float>(absr, static_cast<std::size_t>(mvalid)), 6);
+          s = std::max(s, o.min_depth_sigma_m);
+          // Frozen at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
+          if (it > 0 && std::fabs(s - geo_sigma) < 5e-5 * s) {
+            geo_sigma_frozen = true;
+          }
+          geo_sigma = s;
+        }
+
+        // Weights, cost, inliers.
+        const auto inv_sigma = static_cast<float>(1.0 / sigma);
+        float* w = m.weight.data();
+        double cost = 0.0;
+        int inliers = 0;
+        // Weights carry 1/sigma^2, so that the two kinds of residual combine as normalised
+        // residuals and H^-1 is the covariance.
+        const auto inv_sigma2 = inv_sigma * inv_sigma;
+        for (int i = 0; i < n; ++i) {
+          const float u = r[i] * inv_sigma;
+          w[i] = val[i] ? tukey_weight(u, c) * inv_sigma2 : 0.0F;
+          cost += static_cast<double>(val[i] ? tukey_cost(u, c) : max_cost);
+          inliers += (val[i] && std::fabs(u) < c) ? 1 : 0;
+        }
+        if (geo) {
+          const auto inv_sg = static_cast<float>(1.0 / geo_sigma);
+          const float scale = geo_lambda * inv_sg * inv_sg;
+          const float* rg = m.geo_residual.data();
+          const std::uint8_t* vg = m.geo_valid.data();
+          float* wg = m.geo_weight.data();
+          int gin = 0;
+          for (int i = 0; i < n; ++i) {
+            const float u = rg[i] * inv_sg;
+            wg[i] = vg[i] ? tukey_weight(u, c) * scale : 0.0F;
+            gin += (vg[i] && std::fabs(u) < c) ? 1 : 0;
+          }
+          stats.geo_inliers = gin;
+          cost += geo_cost(inv_sg);
+        }
+
+        Matrix8d H;
+        Vector8d g;
+        accumulate_normal_equations(L, w, r, m.geo_jac, geo ? m.geo_weight.data() : nullptr,
+                                    m.geo_residual.data(), H, g);
+        stats.sigma = sigma;
+        stats.inliers = inliers;
+        stats.inside = inside;
+        stats.H = H;
+
+        Vector8d delta = Vector8d::Zero();
+        if (o.estimate_gain_bias) {
+          delta = H.ldlt().solve(g);
+        } else {
+          delta.head<6>() = H.topLeftCorner<6, 6>().ldlt().solve(g.head<6>());
+        }
+        if (!delta.allFinite() || (o.estimate_gain_bias && std::fabs(1.0 + delta(6)) < 1e-3)) {
+          res.failure = TrackFailure::kNumerical;
+          res.failure_detail = "singular normal equations on level " + std::to_string(l);
+          out.T_cur_ref = T;
+          return out;
+        }
+        prev_cost = cost;
+        T_prev = T;
+        alpha_prev = alpha;
+        beta_prev = beta;
+        last_step = delta;
+        apply_step(T_prev, alpha_prev, beta_prev, delta);
+        const double step = delta.head(params).norm();
+        if (step < o.update_norm_tolerance ||
+            (prev_step_norm >= 0.0 && std::fabs(step - prev_step_norm) < o.update_change_tolerance)) {
+          level_converged = true;
+          break;
+        }
+        prev_step_norm = step;
+      }
+      if (finest) {
+        finest_done = true;
+        res.converged = level_converged;
+        res.sigma = stats.sigma;
+        res.depth_sigma = geo ? geo_sigma : 0.0;
+        res.depth_points = geo ? geo_count : 0;
+        res.depth_inlier_ratio =
+            geo ? static_cast<double>(stats.geo_inliers) / std::max(1, L.normal_count) : 0.0;
+        res.points = n;
+        res.overlap = static_cast<double>(stats.inside) / n;
+        res.inlier_ratio = static_cast<double>(stats.inliers) / n;
+        // Marginal covariance of the pose: the 6x6 block of H^-1 (H holds the 1/sigma^2).
+        const int p = params;
+        Eigen::MatrixXd Hp = stats.H.topLeftCorner(p, p);
+        Eigen::MatrixXd cov = Hp.ldlt().solve(Eigen::MatrixXd::Identity(p, p));
+        res.covariance = cov.topLeftCorner<6, 6>();
+      }
+    }
+    (void)finest_done;
+    out.T_cur_ref = T;
+    out.alpha = alpha;
+    out.beta = beta;
+    res.gain = alpha - 1.0;
+    res.bias = beta;
+    // Health checks: never report success without overlap and agreement.
+    const SE3 T_ref_cur = T.inverse();
+    if (!res.covariance.allFinite() || !T.translation().allFinite()) {
+      res.failure = TrackFailure::kNumerical;
+      res.failure_detail = "non-finite estimate";
+    } else if (res.overlap < o.min_overlap) {
+      res.failure = TrackFailure::kNoOverlap;
+      res.failure_detail = "overlap " + std::to_string(res.overlap) + " < min_overlap";
+    } else if (res.sigma > o.max_sigma) {
+      res.failure = TrackFailure::kHighResidual;
+      res.failure_detail = "robust sigma " + std::to_string(res.sigma) + " > max_sigma";
+    } else if (res.inlier_ratio < o.min_inlier_ratio) {
+      res.failure = TrackFailure::kLowInlierRatio;
+      res.failure_detail = "inlier ratio " + std::to_string(res.inlier_ratio) + " < min_inlier_ratio";
+    } else if (T_ref_cur.translation().norm() > o.max_translation_m ||
+               rotation_angle_deg(T_ref_cur) > o.max_rotation_deg) {
+      res.failure = TrackFailure::kImplausibleMotion;
+      res.failure_detail = "motion to the reference beyond max_translation_m/max_rotation_deg";
+    }
+    return out;
+  }
+};
+
+// ---------------------------------------------------------------------------------------
+
+TrackResult DirectTracker::track(const RgbdFrame& frame) {
+  Impl& m = *impl_;
+  TrackResult result;
+  result.t_ns = frame.t_ns;
+  if (const std::string bad = check_frame(frame, camera_); !bad.empty()) {
+    result.failure = TrackFailure::kInvalidInput;
+    result.failure_detail = bad;
+    result.T_world_cam = m.has_prev ? m.T_world_prev : SE3();
+    return result;
+  }
+  prepare_frame(m, frame, options_);
+  // The depth map's time offset, moved by the motion per frame `velocity` over `frame_dt`.
+  auto set_depth_time_shift = [&](bool known, const SE3& velocity, TimeNs frame_dt) {
+    const TimeNs offset = frame.depth_t_ns != 0 ? frame.depth_t_ns - frame.t_ns : 0;
+    m.depth_time_shift = options_.compensate_depth_time_offset && known && frame_dt > 0 &&
+                         offset != 0 && std::llabs(offset) < 100'000'000LL;
+    m.T_rgb_depth = m.depth_time_shift
+        ? SE3::exp(static_cast<double>(offset) / static_cast<double>(frame_dt) * velocity.log())
+        : SE3();
+  };
+  set_depth_time_shift(m.has_prev && m.has_velocity, m.velocity, m.dt_prev);
+
+  if (!m.has_ref || !m.has_prev) {
+    // The first frame defines the world.
+    TrackerAccess::build_reference(m, options_, impl_->level_cameras);
+    m.ref_t_ns = frame.t_ns;
+    m.T_world_ref = SE3();
+    m.T_world_prev = SE3();
+    m.t_prev = frame.t_ns;
+    m.has_prev = true;
+    m.has_velocity = false;
+    result.converged = true;
+    result.ref_t_ns = frame.t_ns;
+    result.new_keyframe = true;
+    result.inlier_ratio = 1.0;
+    result.overlap = 1.0;
+    result.points = m.ref[static_cast<std::size_t>(options_.finest_level)].count;
+    result.covariance.setZero();
+    if (result.points < options_.min_points) {
+      result.failure = TrackFailure::kTooFewPoints;
+      result.failure_detail = "first frame has " + std::to_string(result.points) +
+                              " usable points: the next frame starts again";
+      m.has_prev = false;
+    }
+    return result;
+  }
+
+  // Constant-velocity prediction, scaled to this frame's time step.
+  SE3 T_world_pred = m.T_world_prev;
+  const TimeNs dt = frame.t_ns - m.t_prev;
+  if (options_.constant_velocity_prior && m.has_velocity && m.dt_prev > 0 && dt > 0) {
+    const double scale = std::clamp(static_cast<double>(dt) / static_cast<double>(m.dt_prev), 0.0, 3.0);
+    T_world_pred = m.T_world_prev * SE3::exp(scale * m.velocity.log());
+  }
+  const SE3 T_ref_guess = m.T_world_ref.inverse() * T_world_pred;
+
+  AlignOutcome a = AlignRunner::align(m, options_, T_ref_guess.inverse());
+  const TimeNs keyframe_t_ns = m.ref_t_ns;
+  const SE3 T_world_keyframe = m.T_world_ref;
+  bool retried = false;
+  // A failure (typically motion blur against a sharp keyframe) tries the previous frame.
+  if (!a.result.ok() && options_.retry_previous_frame && m.ref_t_ns != m.t_prev) {
+    // The previous frame as the reference (its depth time offset is not kept: none applied).
+    auto swap_previous = [&m] {
+      std::swap(m.pyramid, m.prev_pyramid);
+      std::swap(m.depth, m.prev_depth);
+      std::swap(m.depth_pyramid, m.prev_depth_pyramid);
+    };
+    const bool shift = m.depth_time_shift;
+    swap_previous();
+    m.depth_time_shift = false;
+    TrackerAccess::build_reference(m, options_, impl_->level_cameras);
+    swap_previous();
+    m.depth_time_shift = shift;
+    m.T_world_ref = m.T_world_prev;
+    m.ref_t_ns = m.t_prev;
+    const SE3 T_prev_guess = m.T_world_prev.inverse() * T_world_pred;
+    AlignOutcome b = AlignRunner::align(m, options_, T_prev_guess.inverse());
+    b.result.iterations += a.result.iterations;
+    if (b.result.ok() && (!a.result.ok() || b.result.sigma < a.result.sigma)) {
+      a = b;
+      retried = true;
+    }
+  }
+  result = a.result;
+  result.retried_previous = retried;
+  result.t_ns = frame.t_ns;
+  // The keyframe's alignment stood, but its reference data were replaced by the previous
+  // frame's for the retry: this frame then becomes the keyframe.
+  const bool keyframe_lost = !retried && m.ref_t_ns != keyframe_t_ns;
+  if (keyframe_lost) {
+    m.T_world_ref = T_world_keyframe;
+    m.ref_t_ns = keyframe_t_ns;
+  }
+  result.ref_t_ns = m.ref_t_ns;
+  const SE3 T_ref_cur = a.T_cur_ref.inverse();
+
+  if (result.ok()) {
+    result.T_ref_cur = T_ref_cur;
+    result.T_world_cam = m.T_world_ref * T_ref_cur;
+    const ReferenceLevel& L = m.ref[static_cast<std::size_t>(options_.finest_level)];
+    const bool switch_kf =
+        keyframe_lost || !options_.use_keyframes || result.overlap < options_.keyframe_min_overlap ||
+        rotation_angle_deg(T_ref_cur) > options_.keyframe_max_rotation_deg ||
+        T_ref_cur.translation().norm() > options_.keyframe_max_translation_rel * L.median_depth;
+    m.velocity = m.T_world_prev.inverse() * result.T_world_cam;
+    m.has_velocity = true;
+    if (switch_kf) {
+      set_depth_time_shift(true, m.velocity, dt);  // with this frame's estimated motion
+      TrackerAccess::build_reference(m, options_, impl_->level_cameras);
+      m.T_world_ref = result.T_world_cam;
+      m.ref_t_ns = frame.t_ns;
+      result.new_keyframe = true;
+    }
+  } else {
+    // Report the prediction, and start again from this frame: it becomes the reference.
+    result.T_world_cam = T_world_pred;
+    result.T_ref_cur = m.T_world_ref.inverse() * T_world_pred;
+    TrackerAccess::build_reference(m, options_, impl_->level_cameras);
+    m.T_world_ref = T_world_pred;
+    m.ref_t_ns = frame.t_ns;
+    m.has_velocity = false;
+    result.new_keyframe = true;
+  }
+  m.dt_prev = dt;
+  m.t_prev = frame.t_ns;
+  m.T_world_prev = result.T_world_cam;
+  return result;
+}
+
+TrackResult DirectTracker::align_pair(const RgbdFrame& reference, const RgbdFrame& current,
+                                      const SE3& T_ref_cur_guess) {
+  Impl& m = *impl_;
+  reset();
+  TrackResult result;
+  result.t_ns = current.t_ns;
+  for (const RgbdFrame* f : {&reference, &current}) {
+    if (const std::string bad = check_frame(*f, camera_); !bad.empty()) {
+      result.failure = TrackFailure::kInvalidInput;
+      result.failure_detail = bad;
+      return result;
+    }
+  }
+  prepare_frame(m, reference, options_);
+  TrackerAccess::build_reference(m, options_, impl_->level_cameras);
+  prepare_frame(m, current, options_);
+  AlignOutcome a = AlignRunner::align(m, options_, T_ref_cur_guess.inverse());
+  result = a.result;
+  result.t_ns = current.t_ns;
+  result.ref_t_ns = reference.t_ns;
+  result.T_ref_cur = a.T_cur_ref.inverse();
+  result.T_world_cam = result.T_ref_cur;
+  reset();
+  return result;
+}
+
+}  // namespace kestrel::odometry

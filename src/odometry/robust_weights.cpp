@@ -1,0 +1,17 @@
+// Robust sigma from the median absolute residual, thesis eq. 3.40.
+#include "kestrel/odometry/robust_weights.hpp"
+
+#include <algorithm>
+
+namespace kestrel::odometry {
+
+double robust_sigma(std::span<float> abs_residuals, int parameters) {
+  const auto m = static_cast<std::ptrdiff_t>(abs_residuals.size());
+  if (m <= parameters) return 0.0;
+  // Upper median (the element at m/2): the thesis' "median" for large m; O(m) selection.
+  auto mid = abs_residuals.begin() + m / 2;
+  std::nth_element(abs_residuals.begin(), mid, abs_residuals.end());
+  return 1.4826 * (1.0 + 5.0 / static_cast<double>(m - parameters)) * static_cast<double>(*mid);
+}
+
+}  // namespace kestrel::odometry

@@ -1,0 +1,337 @@
+// DirectTracker on rendered scenes: known motions, gain/bias, occluders, noise, failures,
+// bad input; and the analytic Jacobian against central differences.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <iostream>
+#include <random>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/image/interpolation.hpp"
+#include "kestrel/odometry/direct_tracker.hpp"
+#include "kestrel/odometry/warp_jacobian.hpp"
+#include "synthetic_rgbd.hpp"
+
+namespace kestrel::odometry {
+namespace {
+
+using test::render;
+using test::rotation_error_deg;
+using test::test_camera;
+using test::translation_error_m;
+
+SE3 motion(double tx, double ty, double tz, double rx_deg, double ry_deg, double rz_deg) {
+  Vector6d xi;
+  xi << tx, ty, tz, rx_deg * M_PI / 180.0, ry_deg * M_PI / 180.0, rz_deg * M_PI / 180.0;
+  return SE3::exp(xi);
+}
+
+// --- Jacobians -----------------------------------------------------------------------------
+
+// A smooth analytic image, so that its exact gradient is known.
+double smooth_image(double u, double v) {
+  return 0.5 + 0.2 * std::sin(0.11 * u + 0.3) * std::cos(0.07 * v - 0.2) + 0.001 * u;
+}
+Eigen::Vector2d smooth_gradient(double u, double v) {
+  return {0.2 * 0.11 * std::cos(0.11 * u + 0.3) * std::cos(0.07 * v - 0.2) + 0.001,
+          -0.2 * 0.07 * std::sin(0.11 * u + 0.3) * std::sin(0.07 * v - 0.2)};
+}
+
+TEST(WarpJacobian, PoseColumnsMatchCentralDifferences) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const double fx = 517.3, fy = 516.5, cx = 318.6, cy = 255.3;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Vector3d P(U(rng), 0.7 * U(rng), 2.0 + U(rng));
+    auto pixel = [&](const Eigen::Vector3d& X) {
+      return Eigen::Vector2d(fx * X.x() / X.z() + cx, fy * X.y() / X.z() + cy);
+    };
+    // I_ref(pi(exp(d) P)) as a function of the twist d.
+    auto model = [&](const Vector6d& d) {
+      const Eigen::Vector2d p = pixel(SE3::exp(d) * P);
+      return smooth_image(p.x(), p.y());
+    };
+    const Eigen::Vector2d p0 = pixel(P);
+    const Eigen::Vector2d g = smooth_gradient(p0.x(), p0.y());
+    const auto J = photometric_pose_jacobian(P, g.x(), g.y(), fx, fy);
+    for (int k = 0; k < 6; ++k) {
+      const double h = 1e-6;
+      Vector6d e = Vector6d::Zero();
+      e(k) = h;
+      const double numeric = (model(e) - model(-e)) / (2.0 * h);
+      EXPECT_NEAR(J(k), numeric, 1e-6 * std::max(1.0, std::abs(numeric))) << "column " << k;
+    }
+  }
+}
+
+TEST(WarpJacobian, GainBiasColumnsAndInverseCompositionalUpdate) {
+  // Model (1 + dg) I + db: d/d dg = I, d/d db = 1.
+  const Eigen::Vector3d P(0.1, -0.2, 1.5);
+  const Vector8d J = photometric_jacobian(P, 0.01, 0.02, 500, 500, 0.37);
+  EXPECT_DOUBLE_EQ(J(6), 0.37);
+  EXPECT_DOUBLE_EQ(J(7), 1.0);
+  // IC update: if alpha*I_cur + beta = (1 + dg) I_ref + db for every pixel, then the updated
+  // alpha' = alpha / (1 + dg), beta' = (beta - db) / (1 + dg) maps I_cur onto I_ref exactly.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> U(-0.3, 0.3);
+  for (int trial = 0; trial < 100; ++trial) {
+    const double alpha = 1.0 + U(rng), beta = U(rng), dg = U(rng), db = U(rng);
+    const double i_ref = 0.5 + U(rng);
+    const double i_cur = ((1.0 + dg) * i_ref + db - beta) / alpha;
+    const double alpha2 = alpha / (1.0 + dg), beta2 = (beta - db) / (1.0 + dg);
+    EXPECT_NEAR(alpha2 * i_cur + beta2, i_ref, 1e-12);
+  }
+}
+
+// The point-to-plane residual r(T_ref_cur) = n . (T_ref_cur Q_cur(pi(T_ref_cur^-1 P)) - P) on a
+// plane seen by both cameras, with the correspondence re-projected at every perturbation (the
+// full residual, not its linearisation): its derivative under T_ref_cur <- exp(d) T_ref_cur at
+// the true pose must equal -J_g of point_to_plane_pose_jacobian.
+TEST(WarpJacobian, PointToPlaneColumnsMatchCentralDifferences) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const double fx = 517.3, fy = 516.5, cx = 318.6, cy = 255.3;
+  for (int trial = 0; trial < 200; ++trial) {
+    Vector6d xi;
+    xi << 0.05 * U(rng), 0.05 * U(rng), 0.05 * U(rng), 0.1 * U(rng), 0.1 * U(rng), 0.1 * U(rng);
+    const SE3 T0 = SE3::exp(xi);  // true T_ref_cur
+    const Eigen::Vector3d P(U(rng), 0.7 * U(rng), 2.0 + U(rng));
+    Eigen::Vector3d n(0.3 * U(rng), 0.3 * U(rng), -1.0);
+    n.normalize();
+    const double c0 = n.dot(P);  // the plane n . X = c0 (reference frame) through P
+    // The current camera's 3D point on the plane at pixel (u, v).
+    auto q_cur = [&](const Eigen::Vector2d& px) {
+      const Eigen::Vector3d ray((px.x() - cx) / fx, (px.y() - cy) / fy, 1.0);
+      const double lambda = (c0 - n.dot(T0.translation())) / n.dot(T0.so3() * ray);
+      return Eigen::Vector3d(lambda * ray);
+    };
+    auto residual = [&](const Vector6d& d) {
+      const SE3 T = SE3::exp(d) * T0;
+      const Eigen::Vector3d X = T.inverse() * P;  // P in the current camera
+      const Eigen::Vector2d px(fx * X.x() / X.z() + cx, fy * X.y() / X.z() + cy);
+      return n.dot(T * q_cur(px) - P);
+    };
+    EXPECT_NEAR(residual(Vector6d::Zero()), 0.0, 1e-12);
+    const auto J = point_to_plane_pose_jacobian(P, n);
+    for (int k = 0; k < 6; ++k) {
+      const double h = 1e-6;
+      Vector6d e = Vector6d::Zero();
+      e(k) = h;
+      const double numeric = (residual(e) - residual(-e)) / (2.0 * h);
+      EXPECT_NEAR(-J(k), numeric, 1e-6 * std::max(1.0, std::abs(numeric))) << "column " << k;
+    }
+  }
+}
+
+// --- known motions ------------------------------------------------------------------------
+
+struct MotionCase {
+  const char* name;
+  SE3 T_ref_cur;
+};
+
+class KnownMotion : public ::testing::TestWithParam<int> {};
+
+TEST_P(KnownMotion, RecoveredFromRenderedPair) {
+  const std::vector<MotionCase> cases = {
+      {"translation x 3 cm", motion(0.03, 0, 0, 0, 0, 0)},
+      {"translation z 5 cm", motion(0, 0, 0.05, 0, 0, 0)},
+      {"roll 4 deg", motion(0, 0, 0, 0, 0, 4)},
+      {"pan 3 deg + 2 cm", motion(0.02, 0, 0, 0, 3, 0)},
+      {"all axes", motion(0.015, -0.01, 0.02, 1.5, -2.0, 2.5)},
+  };
+  const MotionCase& mc = cases[static_cast<std::size_t>(GetParam())];
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  const SE3 T_world_ref = motion(0.05, 0.02, 0, 0, 0, 0);
+  const auto ref = render(room, cam, T_world_ref);
+  const auto cur = render(room, cam, T_world_ref * mc.T_ref_cur);
+  DirectTracker tracker(cam);
+  const TrackResult r = tracker.align_pair(ref, cur);
+  ASSERT_TRUE(r.ok()) << mc.name << ": " << r.failure_detail;
+  EXPECT_LT(translation_error_m(r.T_ref_cur, mc.T_ref_cur), 1e-3) << mc.name;
+  EXPECT_LT(rotation_error_deg(r.T_ref_cur, mc.T_ref_cur), 0.05) << mc.name;
+  EXPECT_NEAR(r.gain, 0.0, 1e-2);
+  EXPECT_GT(r.inlier_ratio, 0.6);  // points that leave the image count as outliers
+  EXPECT_TRUE(r.covariance.allFinite());
+  EXPECT_GT(r.covariance.diagonal().minCoeff(), 0.0);
+}
+INSTANTIATE_TEST_SUITE_P(Cases, KnownMotion, ::testing::Range(0, 5));
+
+TEST(DirectTracker, GainAndBiasRecovered) {
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  const SE3 T = motion(0.02, 0.0, 0.01, 0.0, 1.0, 1.0);
+  const auto ref = render(room, cam, SE3());
+  auto cur = render(room, cam, T);
+  // I_ref = (1 + g) I_cur + b  <=>  I_cur = (I_ref - b) / (1 + g).
+  const double g = 0.25, b = -0.06;
+  cur.image = (cur.image - b) / (1.0 + g);
+  DirectTracker tracker(cam);
+  const TrackResult r = tracker.align_pair(ref, cur);
+  ASSERT_TRUE(r.ok()) << r.failure_detail;
+  EXPECT_NEAR(r.gain, g, 1e-2);
+  EXPECT_NEAR(r.bias, b, 5e-3);
+  EXPECT_LT(translation_error_m(r.T_ref_cur, T), 1e-3);
+  EXPECT_LT(rotation_error_deg(r.T_ref_cur, T), 0.05);
+}
+
+TEST(DirectTracker, MovingOccluderDoesNotBiasTheEstimate) {
+  const auto cam = test_camera();
+  auto room = test::make_room();
+  const SE3 T = motion(0.02, 0.0, 0.0, 0.0, 1.5, 0.0);
+  // An object in front of the camera that moves by 8 cm between the frames.
+  room.push_back(test::make_rect(Eigen::Vector3d(-0.3, -0.1, 1.2), Eigen::Vector3d::UnitX(),
+                                 Eigen::Vector3d::UnitY(), 0.2, 0.25, 99));
+  const auto ref = render(room, cam, SE3());
+  room.back().origin += Eigen::Vector3d(0.08, 0.03, 0.0);
+  const auto cur = render(room, cam, T);
+  DirectTracker tracker(cam);
+  const TrackResult r = tracker.align_pair(ref, cur);
+  ASSERT_TRUE(r.ok()) << r.failure_detail;
+  EXPECT_LT(translation_error_m(r.T_ref_cur, T), 2e-3);
+  EXPECT_LT(rotation_error_deg(r.T_ref_cur, T), 0.05);
+  EXPECT_LT(r.inlier_ratio, 0.99);  // the occluder's pixels were rejected
+}
+
+TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
+  const PinholeCamera cam({525.0, 525.0, 319.5, 239.5, 640, 480});
+  const auto room = test::make_room();
+  const auto clean = render(room, cam, SE3());
+  std::mt19937 rng(11);
+  std::normal_distribution<float> n01(0.0F, 1.0F);
+  DirectTracker tracker(cam);
+  int within_target = 0;
+  double max_t_err = 0.0;
+  for (int k = 0; k < 100; ++k) {
+    RgbdFrame f;  // 100 frames of the still camera
+    f.t_ns = k * 33'333'333LL;
+    f.image.create(clean.image.size(), CV_8UC1);
+    f.depth_m.create(clean.depth_m.size(), CV_32FC1);
+    for (int v = 0; v < f.image.rows; ++v) {
+      for (int u = 0; u < f.image.cols; ++u) {
+        // 8-bit images with 1.5 grey levels of noise; Kinect-like depth noise 1.4e-3 Z^2,
+        // quantised to the TUM PNG's 0.2 mm.
+        const float i = clean.image.at<float>(v, u) * 255.0F + 1.5F * n01(rng);
+        f.image.at<std::uint8_t>(v, u) = cv::saturate_cast<std::uint8_t>(std::lround(i));
+        const float z = clean.depth_m.at<float>(v, u);
+        const float zn = z + 1.4e-3F * z * z * n01(rng);
+        f.depth_m.at<float>(v, u) = std::round(zn * 5000.0F) / 5000.0F;
+      }
+    }
+    const TrackResult r = tracker.track(f);
+    ASSERT_TRUE(r.ok()) << "frame " << k << ": " << r.failure_detail;
+    const double t_err = r.T_world_cam.translation().norm();
+    within_target += t_err < 1e-4 ? 1 : 0;
+    max_t_err = std::max(max_t_err, t_err);
+    // REGRESSION GUARD on translation, not the issue's target: issue target < 0.1 mm per frame
+    // not yet met: measured max 0.114 mm, 4 of 100 frames above 0.1 mm (docs/odometry.md).
+    EXPECT_LT(t_err, 1.3e-4) << "frame " << k;
+    EXPECT_LT(rotation_error_deg(r.T_world_cam, SE3()), 0.01) << "frame " << k;  // issue target
+  }
+  RecordProperty("max_translation_error_m", std::to_string(max_t_err));
+  std::cout << "still camera: " << within_target << "/100 frames < 0.1 mm, max " << max_t_err * 1e3
+            << " mm\n";
+  EXPECT_GE(within_target, 90);  // regression guard (measured 96)
+}
+
+TEST(DirectTracker, SequenceWithKeyframesFollowsASmoothMotion) {
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  DirectTracker tracker(cam);
+  int keyframes = 0;
+  SE3 T_gt;
+  for (int k = 0; k < 20; ++k) {
+    T_gt = motion(0.004 * k, 0.001 * k, 0.0, 0.0, 0.4 * k, 0.3 * k);
+    const TrackResult r = tracker.track(render(room, cam, T_gt, k * 33'333'333LL));
+    ASSERT_TRUE(r.ok()) << "frame " << k << ": " << r.failure_detail;
+    keyframes += r.new_keyframe ? 1 : 0;
+    EXPECT_LT(translation_error_m(r.T_world_cam, T_gt), 2e-3) << "frame " << k;
+    EXPECT_LT(rotation_error_deg(r.T_world_cam, T_gt), 0.1) << "frame " << k;
+  }
+  EXPECT_GT(keyframes, 1);
+  EXPECT_LT(keyframes, 20);
+}
+
+// --- failures and bad input ---------------------------------------------------------------
+
+TEST(DirectTracker, NonOverlappingFramesAreAFailure) {
+  const auto cam = test_camera();
+  const auto ref = render(test::make_room(1), cam, SE3());
+  DirectTracker tracker(cam);
+  // The same room seen from the opposite direction: the views share nothing.
+  const auto away = render(test::make_room(1), cam, motion(0, 0, 1.0, 0, 180, 0));
+  const TrackResult r1 = tracker.align_pair(ref, away);
+  EXPECT_FALSE(r1.ok());
+  // A different scene at the same pose: everything projects inside, nothing matches.
+  const auto other = render(test::make_room(50), cam, SE3());
+  const TrackResult r2 = tracker.align_pair(ref, other);
+  EXPECT_FALSE(r2.ok()) << "sigma " << r2.sigma << " inliers " << r2.inlier_ratio;
+  EXPECT_NE(r2.failure_detail, "");
+}
+
+TEST(DirectTracker, BadInputIsReportedNotCrashed) {
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  DirectTracker tracker(cam);
+  auto good = render(room, cam, SE3());
+  ASSERT_TRUE(tracker.track(good).ok());
+
+  RgbdFrame small = good;
+  small.image = cv::Mat(100, 100, CV_32FC1, cv::Scalar(0.5));
+  small.depth_m = cv::Mat(100, 100, CV_32FC1, cv::Scalar(1.0));
+  TrackResult r = tracker.track(small);
+  EXPECT_EQ(r.failure, TrackFailure::kInvalidInput);
+
+  RgbdFrame mismatch = good;
+  mismatch.depth_m = cv::Mat(120, 160, CV_32FC1, cv::Scalar(1.0));
+  EXPECT_EQ(tracker.track(mismatch).failure, TrackFailure::kInvalidInput);
+
+  RgbdFrame no_depth = good;
+  no_depth.depth_m = cv::Mat(good.depth_m.size(), CV_32FC1, cv::Scalar(0.0));
+  r = tracker.track(no_depth);  // tracked against the good keyframe: fine
+  EXPECT_TRUE(r.T_world_cam.translation().allFinite());
+  r = tracker.track(good);  // now the reference has no depth: reported, not a crash
+  EXPECT_TRUE(r.T_world_cam.translation().allFinite());
+
+  RgbdFrame weird = good;
+  weird.t_ns += 1;
+  weird.depth_m = good.depth_m.clone();
+  for (int v = 0; v < weird.depth_m.rows; v += 3) {
+    for (int u = 0; u < weird.depth_m.cols; u += 2) {
+      weird.depth_m.at<float>(v, u) = (u % 4 == 0) ? std::nanf("") : -1.0F;
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    r = tracker.track(weird);
+    EXPECT_TRUE(r.T_world_cam.translation().allFinite());
+    EXPECT_TRUE(r.T_world_cam.unit_quaternion().coeffs().allFinite());
+  }
+
+  DirectTracker fresh(cam);
+  RgbdFrame all_invalid = good;
+  all_invalid.depth_m = cv::Mat(good.depth_m.size(), CV_32FC1, cv::Scalar(0.0));
+  r = fresh.track(all_invalid);
+  EXPECT_EQ(r.failure, TrackFailure::kTooFewPoints);
+  r = fresh.track(good);  // starts again from the next usable frame
+  EXPECT_TRUE(r.ok());
+}
+
+TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
+  DirectTrackerOptions o;
+  o.pyramid_levels = 4;
+  o.pyramid_filter = image::PyramidFilter::kGaussian;
+  o.estimate_gain_bias = false;
+  o.min_gradient = 0.0123;
+  const YAML::Node node = YAML::Load(o.to_yaml());
+  const DirectTrackerOptions back = DirectTrackerOptions::from_yaml(node, "test");
+  EXPECT_EQ(back.to_yaml(), o.to_yaml());
+  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_level: 3"), "t"), InputError);
+  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_levels: many"), "t"), InputError);
+  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("finest_level: 7"), "t"), InputError);
+  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_filter: median"), "t"),
+               InputError);
+}
+
+}  // namespace
+}  // namespace kestrel::odometry
