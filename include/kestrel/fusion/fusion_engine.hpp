@@ -1,0 +1,159 @@
+// Time bookkeeping around the EKF: buffers IMU samples and odometry measurements that arrive
+// late or out of order, initialises (static start or given state), gates odometry updates,
+// flags odometry dropout and IMU gaps, and emits the fused state at IMU rate.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kestrel/fusion/stochastic_cloning_ekf.hpp"
+#include "kestrel/io/euroc.hpp"
+
+namespace kestrel::fusion {
+
+/// Every option of the fusion, with its default; YAML keys are the field names.
+struct FusionOptions {
+  ImuNoiseDensities noise;          ///< from the IMU sensor YAML (EuRoC imu0/sensor.yaml)
+  double gravity_m_s2 = 9.81;       ///< world z is up; g = (0, 0, -gravity)
+  /// Odometry camera in the body (IMU) frame, EuRoC T_BS of cam0 (identity if the odometry
+  /// already reports body poses).
+  SE3 T_body_cam;
+  /// Chi-square gate probability for the 6-dof relative-pose update; 0 disables the gate.
+  double gate_probability = 0.999;
+  /// No accepted odometry update for this long -> IMU-only, `vo_dropout` flag set.
+  double dropout_timeout_s = 0.25;
+  /// Consecutive IMU samples further apart than this set the `imu_gap` flag (the step is
+  /// still propagated, in sub-steps of the nominal period, with growing covariance).
+  double max_imu_gap_s = 0.05;
+  /// Inputs are held this long (in data time, relative to the newest input) so that late or
+  /// out-of-order samples are processed in time order. Older arrivals are dropped, counted.
+  double reorder_window_s = 0.02;
+  /// Static initialisation: this long a still window of IMU samples, gravity from the mean
+  /// accelerometer, gyro bias from the mean rate.
+  double static_init_s = 1.0;
+  double static_max_gyro_std_rad_s = 0.02;
+  double static_max_accel_std_m_s2 = 0.3;
+  /// Initial standard deviations of the current state (both initialisations).
+  double init_sigma_p_m = 1e-3;
+  double init_sigma_roll_pitch_rad = 0.02;
+  double init_sigma_yaw_rad = 0.02;
+  double init_sigma_v_m_s = 0.05;
+  double init_sigma_gyro_bias_rad_s = 0.01;
+  double init_sigma_accel_bias_m_s2 = 0.1;
+
+  /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
+  static FusionOptions load_yaml(const std::filesystem::path& path);
+  /// Takes the noise densities and T_BS-free fields of an EuRoC IMU sensor.yaml.
+  void set_imu_noise(const io::ImuNoise& imu);
+  /// One line for logs.
+  [[nodiscard]] std::string describe() const;
+  /// Throws InputError for non-positive densities and similar impossible values.
+  void validate() const;
+  [[nodiscard]] Matrix15d initial_covariance() const;
+};
+
+/// Health flags of an output, as bits.
+enum FusionFlag : std::uint32_t {
+  kFlagNone = 0,
+  kFlagVoDropout = 1u << 0,    ///< no accepted odometry update within dropout_timeout_s
+  kFlagImuGap = 1u << 1,       ///< the last IMU step bridged a gap > max_imu_gap_s
+  kFlagRejected = 1u << 2,     ///< the last odometry measurement was rejected
+  kFlagUpdated = 1u << 3,      ///< this output follows an accepted update
+};
+std::string describe_flags(std::uint32_t flags);
+
+/// One fused output (IMU rate, or at the odometry's time stamps).
+struct FusedState {
+  TimeNs t_ns = 0;
+  NominalState state;
+  Eigen::Matrix<double, 9, 1> sigma;  ///< std of [p, theta, v]
+  Eigen::Vector3d sigma_gyro_bias = Eigen::Vector3d::Zero();  ///< std of b_g
+  std::uint32_t flags = kFlagNone;
+  bool at_odometry = false;  ///< emitted at an odometry time stamp (after its update)
+};
+
+/// A relative motion of the odometry camera between two of its frames.
+struct RelativePoseMeasurement {
+  TimeNs t_ref_ns = 0;
+  TimeNs t_ns = 0;
+  SE3 T_ref_cur;          ///< camera frame at t_ns in the camera frame at t_ref_ns
+  Matrix6d covariance;    ///< left perturbation [v, w] in the reference frame (TrackResult's)
+};
+
+struct FusionCounters {
+  std::size_t imu_samples = 0;
+  std::size_t imu_dropped_late = 0;       ///< arrived older than the processed time
+  std::size_t imu_dropped_invalid = 0;    ///< non-finite values
+  std::size_t imu_gaps = 0;
+  std::size_t updates_accepted = 0;
+  std::size_t updates_gated = 0;
+  std::size_t updates_invalid = 0;
+  std::size_t updates_no_reference = 0;   ///< reference time was not the clone's
+  std::size_t measurements_dropped_late = 0;
+  std::size_t measurements_before_init = 0;
+  [[nodiscard]] std::string describe() const;
+};
+
+class FusionEngine {
+ public:
+  explicit FusionEngine(FusionOptions options);
+
+  /// Starts from a given state instead of the static initialisation (biases included); the
+  /// covariance is options().initial_covariance().
+  void initialize(const NominalState& state);
+
+  /// Inputs, in any order within reorder_window_s. Non-finite samples are dropped, counted.
+  void add_imu(const io::ImuSample& sample);
+  void add_relative_pose(const RelativePoseMeasurement& measurement);
+
+  /// Processes everything older than (newest input - reorder_window) and returns the outputs
+  /// produced (at every IMU sample if imu_rate, else only at odometry time stamps).
+  std::vector<FusedState> poll(bool imu_rate);
+  /// Processes all that is buffered.
+  std::vector<FusedState> flush(bool imu_rate);
+
+  [[nodiscard]] bool initialized() const { return initialized_; }
+  [[nodiscard]] const StochasticCloningEkf& filter() const { return ekf_; }
+  [[nodiscard]] const FusionCounters& counters() const { return counters_; }
+  [[nodiscard]] const FusionOptions& options() const { return options_; }
+  /// The UpdateResult of the last odometry measurement processed.
+  [[nodiscard]] const std::optional<UpdateResult>& last_update() const { return last_update_; }
+
+ private:
+  void process_until(TimeNs t_ns, bool imu_rate, std::vector<FusedState>& out);
+  void process_imu(const io::ImuSample& s, bool imu_rate, std::vector<FusedState>& out);
+  void process_measurement(const RelativePoseMeasurement& m, std::vector<FusedState>& out);
+  void propagate_to(TimeNs t_ns);
+  bool try_static_init(const io::ImuSample& s);
+  FusedState output(bool at_odometry) const;
+  void emit(bool at_odometry, std::vector<FusedState>& out);
+
+  FusionOptions options_;
+  StochasticCloningEkf ekf_;
+  double gate_chi2_ = 0.0;
+  bool initialized_ = false;
+  std::multimap<TimeNs, io::ImuSample> imu_buffer_;
+  std::multimap<TimeNs, RelativePoseMeasurement> vo_buffer_;
+  TimeNs newest_input_ns_ = std::numeric_limits<TimeNs>::min();
+  TimeNs processed_ns_ = std::numeric_limits<TimeNs>::min();
+  std::optional<io::ImuSample> last_imu_;
+  std::deque<io::ImuSample> init_window_;
+  TimeNs last_accepted_update_ns_ = 0;
+  std::uint32_t sticky_flags_ = kFlagNone;
+  std::optional<UpdateResult> last_update_;
+  FusionCounters counters_;
+};
+
+/// Static initialisation from still IMU samples: roll and pitch from the mean specific force
+/// (yaw 0), gyro bias from the mean rate; nullopt if the window is not still enough.
+std::optional<NominalState> static_initial_state(const std::vector<io::ImuSample>& samples,
+                                                 const FusionOptions& options);
+
+}  // namespace kestrel::fusion

@@ -1,0 +1,149 @@
+// Error-state EKF with stochastic cloning (thesis 4.6): IMU propagation of the nominal state
+// p, q, v, b_g, b_a, a cloned pose (p_d, q_d) of the last reference frame, and relative-pose
+// updates between the clone and now with the Joseph-form covariance update (eq. 4.8).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <string_view>
+
+#include "kestrel/core/time.hpp"
+#include "kestrel/geometry/se3.hpp"
+
+namespace kestrel::fusion {
+
+/// Error-state layout: [dp, dtheta, dv, db_g, db_a, dp_d, dtheta_d], 21 entries. Attitude
+/// errors are local (body frame), q = q_hat * exp(dtheta) (thesis eqs. 4.3-4.4).
+namespace idx {
+inline constexpr int kP = 0;
+inline constexpr int kTheta = 3;
+inline constexpr int kV = 6;
+inline constexpr int kBg = 9;
+inline constexpr int kBa = 12;
+inline constexpr int kPd = 15;
+inline constexpr int kThetaD = 18;
+inline constexpr int kCore = 15;  ///< entries of the current (non-cloned) state
+inline constexpr int kDim = 21;
+}  // namespace idx
+
+using Vector15d = Eigen::Matrix<double, idx::kCore, 1>;
+using Matrix15d = Eigen::Matrix<double, idx::kCore, idx::kCore>;
+using VectorXs = Eigen::Matrix<double, idx::kDim, 1>;
+using MatrixXs = Eigen::Matrix<double, idx::kDim, idx::kDim>;
+using Matrix6xs = Eigen::Matrix<double, 6, idx::kDim>;
+
+/// The nominal state (thesis eq. 4.1): body (IMU) pose in a z-up world, velocity, biases, clone.
+struct NominalState {
+  TimeNs t_ns = 0;
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_world_body = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias_rad_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();
+  /// Cloned pose of the reference frame (p_d, q_d) and the time it was cloned.
+  Eigen::Vector3d p_clone_world = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_world_clone = Eigen::Quaterniond::Identity();
+  TimeNs clone_t_ns = 0;
+
+  [[nodiscard]] SE3 T_world_body() const { return SE3(q_world_body, p_world); }
+  [[nodiscard]] SE3 T_world_clone() const { return SE3(q_world_clone, p_clone_world); }
+  /// Adds an error-state vector: additive except the attitudes, q <- q * exp(dtheta).
+  [[nodiscard]] NominalState boxplus(const VectorXs& dx) const;
+  /// The error vector e with this = other.boxplus(e) (attitude errors by the log map).
+  [[nodiscard]] VectorXs boxminus(const NominalState& other) const;
+  [[nodiscard]] bool all_finite() const;
+};
+
+/// Noise densities of the continuous model (thesis eq. 4.5: dQ = dt * cQ).
+struct ImuNoiseDensities {
+  double gyro_noise = 1.6968e-4;   ///< rad/s/sqrt(Hz)  (EuRoC ADIS16448 defaults)
+  double gyro_walk = 1.9393e-5;    ///< rad/s^2/sqrt(Hz)
+  double accel_noise = 2.0e-3;     ///< m/s^2/sqrt(Hz)
+  double accel_walk = 3.0e-3;      ///< m/s^3/sqrt(Hz)
+};
+
+/// One IMU reading held constant over a step of length dt_s (the mean of two samples).
+struct ImuReading {
+  Eigen::Vector3d gyro_rad_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_m_s2 = Eigen::Vector3d::Zero();
+};
+
+/// Outcome of one relative-pose update, with its numbers (never a bare bool).
+enum class UpdateOutcome {
+  kAccepted,
+  kRejectedGate,       ///< Mahalanobis distance above the chi-square gate
+  kRejectedInvalid,    ///< non-finite measurement or covariance, or S not positive-definite
+};
+std::string_view to_string(UpdateOutcome outcome);
+
+struct UpdateResult {
+  UpdateOutcome outcome = UpdateOutcome::kAccepted;
+  Vector6d residual = Vector6d::Zero();  ///< [dp, dtheta] of the measured vs predicted motion
+  double mahalanobis_sq = 0.0;           ///< r^T S^-1 r
+  double gate = 0.0;                     ///< the chi-square threshold it was compared with
+  [[nodiscard]] bool accepted() const { return outcome == UpdateOutcome::kAccepted; }
+};
+
+/// The filter proper: no buffering or time bookkeeping of inputs (see FusionEngine).
+class StochasticCloningEkf {
+ public:
+  StochasticCloningEkf() = default;
+  StochasticCloningEkf(const ImuNoiseDensities& noise, const Eigen::Vector3d& g_world)
+      : noise_(noise), g_world_(g_world) {}
+
+  /// Sets the state and the 15x15 covariance of the current state; the clone is set to the
+  /// current pose with its covariance (thesis: "at the beginning, we fix p_d = p").
+  void initialize(const NominalState& state, const Matrix15d& covariance);
+
+  /// Propagates over dt_s > 0 with one reading (thesis eqs. 4.2, 4.5, 4.6; the transition
+  /// is the exact Jacobian of the discrete step, so it equals I + cF dt to first order).
+  void propagate(const ImuReading& reading, double dt_s);
+
+  /// Relative pose of the body from the clone to now, T_clone_body, with the covariance of
+  /// a left perturbation xi = [v, w] in the clone frame (T_true = exp(xi) * T_measured, the
+  /// odometry's TrackResult convention). gate_chi2 <= 0 disables gating.
+  UpdateResult update(const SE3& T_clone_body_measured, const Matrix6d& covariance_left,
+                      double gate_chi2);
+
+  /// Stochastic cloning: p_d <- p, q_d <- q with their covariances (thesis, after eq. 4.8).
+  void clone();
+
+  [[nodiscard]] const NominalState& state() const { return x_; }
+  [[nodiscard]] const MatrixXs& covariance() const { return P_; }
+  /// For tests and tools: overwrite the nominal state (time, clone included).
+  void set_state(const NominalState& x) { x_ = x; }
+  void set_time(TimeNs t_ns) { x_.t_ns = t_ns; }
+  [[nodiscard]] const Eigen::Vector3d& gravity() const { return g_world_; }
+  [[nodiscard]] const ImuNoiseDensities& noise() const { return noise_; }
+
+  // --- the model, exposed for the finite-difference tests ---
+  /// The discrete nominal step (the clone is untouched).
+  static NominalState propagate_nominal(const NominalState& x, const ImuReading& reading,
+                                        double dt_s, const Eigen::Vector3d& g_world);
+  /// d(error after the step)/d(error before), 15x15 over the current state.
+  static Matrix15d transition(const NominalState& x, const ImuReading& reading, double dt_s);
+  /// Discrete process noise dQ = G (dt cQ) G^T over the current state.
+  static Matrix15d process_noise(const ImuNoiseDensities& noise, double dt_s);
+  /// h(x) = T_clone_body = T_world_clone^-1 T_world_body (thesis eq. 4.7).
+  static SE3 predict_relative_pose(const NominalState& x);
+  /// Residual [p_meas - p_pred, log(R_pred^T R_meas)] (attitude in the body frame).
+  static Vector6d residual(const SE3& measured, const SE3& predicted);
+  /// d(residual)/d(error state): the residual is ~ H dx + noise.
+  static Matrix6xs measurement_jacobian(const NominalState& x);
+  /// Covariance of a left perturbation of T (clone frame) expressed in the residual's
+  /// parametrisation [additive translation, local rotation].
+  static Matrix6d left_to_residual_covariance(const SE3& T, const Matrix6d& covariance_left);
+
+ private:
+  ImuNoiseDensities noise_;
+  Eigen::Vector3d g_world_{0.0, 0.0, -9.81};
+  NominalState x_;
+  MatrixXs P_ = MatrixXs::Identity();
+};
+
+/// Quantile of the chi-square distribution with `dof` degrees of freedom (probability in
+/// (0, 1)), by bisection on the regularised lower incomplete gamma function.
+double chi_square_quantile(double probability, double dof);
+
+}  // namespace kestrel::fusion

@@ -1,0 +1,397 @@
+// FusionEngine: buffering, initialisation, gating and dropout bookkeeping around the EKF.
+#include "kestrel/fusion/fusion_engine.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/yaml_file.hpp"
+
+namespace kestrel::fusion {
+namespace {
+
+using Eigen::Vector3d;
+
+ImuReading mean_reading(const io::ImuSample& a, const io::ImuSample& b) {
+  return {0.5 * (a.gyro_rad_s + b.gyro_rad_s), 0.5 * (a.accel_m_s2 + b.accel_m_s2)};
+}
+
+bool finite_sample(const io::ImuSample& s) {
+  return s.gyro_rad_s.allFinite() && s.accel_m_s2.allFinite();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- options
+
+FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
+  const YAML::Node root = io::load_yaml_file(path);
+  if (!root.IsMap()) throw InputError(path.string() + ": expected a YAML map of fusion options");
+  FusionOptions o;
+  const std::vector<std::pair<std::string, double*>> fields = {
+      {"gyroscope_noise_density", &o.noise.gyro_noise},
+      {"gyroscope_random_walk", &o.noise.gyro_walk},
+      {"accelerometer_noise_density", &o.noise.accel_noise},
+      {"accelerometer_random_walk", &o.noise.accel_walk},
+      {"gravity_m_s2", &o.gravity_m_s2},
+      {"gate_probability", &o.gate_probability},
+      {"dropout_timeout_s", &o.dropout_timeout_s},
+      {"max_imu_gap_s", &o.max_imu_gap_s},
+      {"reorder_window_s", &o.reorder_window_s},
+      {"static_init_s", &o.static_init_s},
+      {"static_max_gyro_std_rad_s", &o.static_max_gyro_std_rad_s},
+      {"static_max_accel_std_m_s2", &o.static_max_accel_std_m_s2},
+      {"init_sigma_p_m", &o.init_sigma_p_m},
+      {"init_sigma_roll_pitch_rad", &o.init_sigma_roll_pitch_rad},
+      {"init_sigma_yaw_rad", &o.init_sigma_yaw_rad},
+      {"init_sigma_v_m_s", &o.init_sigma_v_m_s},
+      {"init_sigma_gyro_bias_rad_s", &o.init_sigma_gyro_bias_rad_s},
+      {"init_sigma_accel_bias_m_s2", &o.init_sigma_accel_bias_m_s2}};
+  for (const auto& kv : root) {
+    const auto key = kv.first.as<std::string>();
+    bool known = false;
+    for (const auto& [name, ptr] : fields) {
+      if (name != key) continue;
+      known = true;
+      try {
+        *ptr = kv.second.as<double>();
+      } catch (const YAML::Exception&) {
+        throw InputError(path, key, "must be a number");
+      }
+    }
+    if (!known) throw InputError(path, key, "unknown fusion option");
+  }
+  try {
+    o.validate();
+  } catch (const InputError& e) {
+    throw InputError(path.string() + ": " + e.what());
+  }
+  return o;
+}
+
+void FusionOptions::set_imu_noise(const io::ImuNoise& imu) {
+  noise.gyro_noise = imu.gyro_noise_density;
+  noise.gyro_walk = imu.gyro_random_walk;
+  noise.accel_noise = imu.accel_noise_density;
+  noise.accel_walk = imu.accel_random_walk;
+}
+
+std::string FusionOptions::describe() const {
+  std::ostringstream s;
+  s << "gyro_noise=" << noise.gyro_noise << " gyro_walk=" << noise.gyro_walk
+    << " accel_noise=" << noise.accel_noise << " accel_walk=" << noise.accel_walk
+    << " g=" << gravity_m_s2 << " gate_p=" << gate_probability
+    << " dropout=" << dropout_timeout_s << "s max_imu_gap=" << max_imu_gap_s
+    << "s reorder=" << reorder_window_s << "s static_init=" << static_init_s
+    << "s T_body_cam.t=[" << T_body_cam.translation().transpose() << "]";
+  return s.str();
+}
+
+void FusionOptions::validate() const {
+  auto positive = [](double v, const char* name) {
+    if (!std::isfinite(v) || v <= 0.0) {
+      throw InputError(std::string(name) + ": must be positive, got " + std::to_string(v));
+    }
+  };
+  positive(noise.gyro_noise, "gyroscope_noise_density");
+  positive(noise.gyro_walk, "gyroscope_random_walk");
+  positive(noise.accel_noise, "accelerometer_noise_density");
+  positive(noise.accel_walk, "accelerometer_random_walk");
+  positive(gravity_m_s2, "gravity_m_s2");
+  positive(dropout_timeout_s, "dropout_timeout_s");
+  positive(max_imu_gap_s, "max_imu_gap_s");
+  positive(static_init_s, "static_init_s");
+  positive(init_sigma_p_m, "init_sigma_p_m");
+  positive(init_sigma_roll_pitch_rad, "init_sigma_roll_pitch_rad");
+  positive(init_sigma_yaw_rad, "init_sigma_yaw_rad");
+  positive(init_sigma_v_m_s, "init_sigma_v_m_s");
+  positive(init_sigma_gyro_bias_rad_s, "init_sigma_gyro_bias_rad_s");
+  positive(init_sigma_accel_bias_m_s2, "init_sigma_accel_bias_m_s2");
+  if (!(gate_probability >= 0.0 && gate_probability < 1.0)) {
+    throw InputError("gate_probability: must be in [0, 1), got " + std::to_string(gate_probability));
+  }
+  if (!(reorder_window_s >= 0.0)) throw InputError("reorder_window_s: must be >= 0");
+}
+
+Matrix15d FusionOptions::initial_covariance() const {
+  Vector15d s;
+  s << Vector3d::Constant(init_sigma_p_m), init_sigma_roll_pitch_rad, init_sigma_roll_pitch_rad,
+      init_sigma_yaw_rad, Vector3d::Constant(init_sigma_v_m_s),
+      Vector3d::Constant(init_sigma_gyro_bias_rad_s), Vector3d::Constant(init_sigma_accel_bias_m_s2);
+  // Roll/pitch/yaw sigmas are world-frame angles; the error state is local, but for a
+  // diagonal prior with equal roll/pitch sigma the difference is only the yaw axis' tilt.
+  return s.array().square().matrix().asDiagonal();
+}
+
+std::string describe_flags(std::uint32_t flags) {
+  if (flags == kFlagNone) return "ok";
+  std::string s;
+  auto add = [&](std::uint32_t bit, const char* name) {
+    if ((flags & bit) == 0) return;
+    if (!s.empty()) s += "|";
+    s += name;
+  };
+  add(kFlagVoDropout, "vo_dropout");
+  add(kFlagImuGap, "imu_gap");
+  add(kFlagRejected, "rejected");
+  add(kFlagUpdated, "updated");
+  return s;
+}
+
+std::string FusionCounters::describe() const {
+  std::ostringstream s;
+  s << "imu=" << imu_samples << " imu_late=" << imu_dropped_late
+    << " imu_invalid=" << imu_dropped_invalid << " imu_gaps=" << imu_gaps
+    << " updates=" << updates_accepted << " gated=" << updates_gated
+    << " invalid=" << updates_invalid << " no_reference=" << updates_no_reference
+    << " vo_late=" << measurements_dropped_late << " vo_before_init=" << measurements_before_init;
+  return s.str();
+}
+
+// ---------------------------------------------------------------- static initialisation
+
+std::optional<NominalState> static_initial_state(const std::vector<io::ImuSample>& samples,
+                                                 const FusionOptions& options) {
+  if (samples.size() < 2) return std::nullopt;
+  Vector3d mg = Vector3d::Zero(), ma = Vector3d::Zero();
+  for (const auto& s : samples) {
+    mg += s.gyro_rad_s;
+    ma += s.accel_m_s2;
+  }
+  const double n = static_cast<double>(samples.size());
+  mg /= n;
+  ma /= n;
+  double vg = 0.0, va = 0.0;
+  for (const auto& s : samples) {
+    vg += (s.gyro_rad_s - mg).squaredNorm();
+    va += (s.accel_m_s2 - ma).squaredNorm();
+  }
+  const double sg = std::sqrt(vg / (3.0 * (n - 1.0)));
+  const double sa = std::sqrt(va / (3.0 * (n - 1.0)));
+  if (sg > options.static_max_gyro_std_rad_s || sa > options.static_max_accel_std_m_s2) {
+    return std::nullopt;
+  }
+  if (std::abs(ma.norm() - options.gravity_m_s2) > 0.1 * options.gravity_m_s2) return std::nullopt;
+  // At rest the accelerometer reads R^T (0, 0, g): the body's view of world up.
+  Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(ma.normalized(), Vector3d::UnitZ());
+  const Eigen::Matrix3d R = q.toRotationMatrix();
+  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  q = Eigen::AngleAxisd(-yaw, Vector3d::UnitZ()) * q;
+  q.normalize();
+  NominalState x;
+  x.t_ns = samples.back().t_ns;
+  x.q_world_body = q;
+  x.gyro_bias_rad_s = mg;
+  return x;
+}
+
+// ---------------------------------------------------------------- engine
+
+FusionEngine::FusionEngine(FusionOptions options) : options_(std::move(options)) {
+  options_.validate();
+  ekf_ = StochasticCloningEkf(options_.noise, Vector3d(0.0, 0.0, -options_.gravity_m_s2));
+  gate_chi2_ = options_.gate_probability > 0.0
+                   ? chi_square_quantile(options_.gate_probability, 6.0)
+                   : 0.0;
+}
+
+void FusionEngine::initialize(const NominalState& state) {
+  ekf_.initialize(state, options_.initial_covariance());
+  initialized_ = true;
+  processed_ns_ = std::max(processed_ns_, state.t_ns);
+  last_accepted_update_ns_ = state.t_ns;
+}
+
+void FusionEngine::add_imu(const io::ImuSample& sample) {
+  if (!finite_sample(sample)) {
+    ++counters_.imu_dropped_invalid;
+    return;
+  }
+  if (sample.t_ns <= processed_ns_ && (initialized_ || last_imu_)) {
+    ++counters_.imu_dropped_late;
+    return;
+  }
+  imu_buffer_.emplace(sample.t_ns, sample);
+  newest_input_ns_ = std::max(newest_input_ns_, sample.t_ns);
+}
+
+void FusionEngine::add_relative_pose(const RelativePoseMeasurement& m) {
+  if (m.t_ns < processed_ns_) {
+    ++counters_.measurements_dropped_late;
+    return;
+  }
+  vo_buffer_.emplace(m.t_ns, m);
+  newest_input_ns_ = std::max(newest_input_ns_, m.t_ns);
+}
+
+std::vector<FusedState> FusionEngine::poll(bool imu_rate) {
+  std::vector<FusedState> out;
+  if (newest_input_ns_ == std::numeric_limits<TimeNs>::min()) return out;
+  process_until(newest_input_ns_ - s_to_ns(options_.reorder_window_s), imu_rate, out);
+  return out;
+}
+
+std::vector<FusedState> FusionEngine::flush(bool imu_rate) {
+  std::vector<FusedState> out;
+  process_until(std::numeric_limits<TimeNs>::max(), imu_rate, out);
+  return out;
+}
+
+void FusionEngine::process_until(TimeNs t_end, bool imu_rate, std::vector<FusedState>& out) {
+  for (;;) {
+    const bool have_imu = !imu_buffer_.empty() && imu_buffer_.begin()->first <= t_end;
+    const bool have_vo = !vo_buffer_.empty() && vo_buffer_.begin()->first <= t_end;
+    if (!have_imu && !have_vo) break;
+    // IMU first at equal times, so that a measurement sees the propagation up to its time.
+    if (have_imu && (!have_vo || imu_buffer_.begin()->first <= vo_buffer_.begin()->first)) {
+      const io::ImuSample s = imu_buffer_.begin()->second;
+      imu_buffer_.erase(imu_buffer_.begin());
+      process_imu(s, imu_rate, out);
+    } else {
+      const RelativePoseMeasurement m = vo_buffer_.begin()->second;
+      vo_buffer_.erase(vo_buffer_.begin());
+      process_measurement(m, out);
+    }
+  }
+}
+
+bool FusionEngine::try_static_init(const io::ImuSample& s) {
+  init_window_.push_back(s);
+  const TimeNs span = s_to_ns(options_.static_init_s);
+  while (init_window_.size() > 2 && s.t_ns - init_window_[1].t_ns >= span) {
+    init_window_.pop_front();
+  }
+  if (s.t_ns - init_window_.front().t_ns < span) return false;
+  const std::vector<io::ImuSample> window(init_window_.begin(), init_window_.end());
+  const auto x = static_initial_state(window, options_);
+  if (!x) return false;
+  initialize(*x);
+  init_window_.clear();
+  return true;
+}
+
+void FusionEngine::propagate_to(TimeNs t_ns) {
+  // The reading over [filter time, t_ns]: the mean of the last sample and the next one.
+  const TimeNs t0 = ekf_.state().t_ns;
+  if (t_ns <= t0 || !last_imu_) return;
+  io::ImuSample next = *last_imu_;
+  if (auto it = imu_buffer_.lower_bound(t_ns); it != imu_buffer_.end()) next = it->second;
+  ImuReading reading = mean_reading(*last_imu_, next);
+  const TimeNs max_step = std::max<TimeNs>(1, s_to_ns(0.5 * options_.max_imu_gap_s));
+  TimeNs t = t0;
+  while (t < t_ns) {
+    const TimeNs step = std::min(max_step, t_ns - t);
+    ekf_.propagate(reading, ns_to_s(step));
+    t += step;
+  }
+  ekf_.set_time(t_ns);
+}
+
+void FusionEngine::process_imu(const io::ImuSample& s, bool imu_rate, std::vector<FusedState>& out) {
+  ++counters_.imu_samples;
+  if (!initialized_) {
+    if (try_static_init(s)) last_imu_ = s;
+    processed_ns_ = std::max(processed_ns_, s.t_ns);
+    return;
+  }
+  if (s.t_ns < ekf_.state().t_ns) {  // before a given initial state
+    last_imu_ = s;
+    return;
+  }
+  if (!last_imu_) last_imu_ = s;
+  const double gap_s = ns_to_s(s.t_ns - last_imu_->t_ns);
+  if (gap_s > options_.max_imu_gap_s) {
+    ++counters_.imu_gaps;
+    sticky_flags_ |= kFlagImuGap;
+  }
+  const TimeNs t0 = ekf_.state().t_ns;
+  if (s.t_ns > t0) {
+    const ImuReading reading = mean_reading(*last_imu_, s);
+    const TimeNs max_step = std::max<TimeNs>(1, s_to_ns(0.5 * options_.max_imu_gap_s));
+    TimeNs t = t0;
+    while (t < s.t_ns) {
+      const TimeNs step = std::min(max_step, s.t_ns - t);
+      ekf_.propagate(reading, ns_to_s(step));
+      t += step;
+    }
+    ekf_.set_time(s.t_ns);
+  }
+  last_imu_ = s;
+  processed_ns_ = std::max(processed_ns_, s.t_ns);
+  if (imu_rate) emit(false, out);
+}
+
+void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
+                                       std::vector<FusedState>& out) {
+  processed_ns_ = std::max(processed_ns_, m.t_ns);
+  if (!initialized_) {
+    ++counters_.measurements_before_init;
+    return;
+  }
+  if (m.t_ns < ekf_.state().t_ns) {
+    ++counters_.measurements_dropped_late;
+    return;
+  }
+  propagate_to(m.t_ns);
+  // The measurement must start at the cloned frame (0.5 ms tolerance); otherwise it only
+  // starts a new reference (first frame, or a frame whose predecessor was never seen).
+  constexpr TimeNs kTolerance = 500'000;
+  if (std::llabs(m.t_ref_ns - ekf_.state().clone_t_ns) > kTolerance) {
+    ++counters_.updates_no_reference;
+  } else {
+    // Odometry camera motion -> body motion: T_b1_b2 = T_BC T_c1_c2 T_BC^-1; a left
+    // perturbation moves with the adjoint of T_BC.
+    const SE3& T_bc = options_.T_body_cam;
+    const SE3 T_body = T_bc * m.T_ref_cur * T_bc.inverse();
+    const Matrix6d Ad = T_bc.adjoint();
+    const Matrix6d cov = Ad * m.covariance * Ad.transpose();
+    const UpdateResult r = ekf_.update(T_body, cov, gate_chi2_);
+    last_update_ = r;
+    switch (r.outcome) {
+      case UpdateOutcome::kAccepted:
+        ++counters_.updates_accepted;
+        last_accepted_update_ns_ = m.t_ns;
+        sticky_flags_ |= kFlagUpdated;
+        break;
+      case UpdateOutcome::kRejectedGate:
+        ++counters_.updates_gated;
+        sticky_flags_ |= kFlagRejected;
+        break;
+      case UpdateOutcome::kRejectedInvalid:
+        ++counters_.updates_invalid;
+        sticky_flags_ |= kFlagRejected;
+        break;
+    }
+  }
+  ekf_.clone();  // re-cloning after each update (thesis, after eq. 4.8)
+  emit(true, out);
+}
+
+void FusionEngine::emit(bool at_odometry, std::vector<FusedState>& out) {
+  out.push_back(output(at_odometry));
+  sticky_flags_ = kFlagNone;  // event flags are reported once, on the next output
+}
+
+FusedState FusionEngine::output(bool at_odometry) const {
+  FusedState f;
+  f.state = ekf_.state();
+  f.t_ns = f.state.t_ns;
+  f.sigma = ekf_.covariance().diagonal().head<9>().cwiseMax(0.0).cwiseSqrt();
+  f.sigma_gyro_bias = ekf_.covariance().diagonal().segment<3>(idx::kBg).cwiseMax(0.0).cwiseSqrt();
+  f.at_odometry = at_odometry;
+  f.flags = sticky_flags_;
+  if (ns_to_s(f.t_ns - last_accepted_update_ns_) > options_.dropout_timeout_s) {
+    f.flags |= kFlagVoDropout;
+  }
+  if (!f.state.all_finite() || !f.sigma.allFinite()) {
+    throw std::runtime_error("fusion: the filter state became non-finite at t=" +
+                             std::to_string(ns_to_s(f.t_ns)) + " s");
+  }
+  return f;
+}
+
+}  // namespace kestrel::fusion

@@ -1,0 +1,285 @@
+// Error-state EKF with stochastic cloning, thesis 4.6 (eqs. 4.1-4.8).
+#include "kestrel/fusion/stochastic_cloning_ekf.hpp"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "kestrel/geometry/so3.hpp"
+
+namespace kestrel::fusion {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+Quaterniond exp_q(const Vector3d& w) { return SO3::exp(w).unit_quaternion(); }
+Vector3d log_q(const Quaterniond& q) { return SO3(q).log(); }
+
+// q * exp(dtheta), renormalised (thesis: "q_k|k needs to be normalised after this step").
+Quaterniond right_perturb(const Quaterniond& q, const Vector3d& dtheta) {
+  Quaterniond r = q * exp_q(dtheta);
+  r.normalize();
+  return r;
+}
+
+}  // namespace
+
+std::string_view to_string(UpdateOutcome outcome) {
+  switch (outcome) {
+    case UpdateOutcome::kAccepted: return "accepted";
+    case UpdateOutcome::kRejectedGate: return "rejected by the chi-square gate";
+    case UpdateOutcome::kRejectedInvalid: return "rejected: invalid measurement";
+  }
+  return "unknown";
+}
+
+NominalState NominalState::boxplus(const VectorXs& dx) const {
+  NominalState r = *this;
+  r.p_world += dx.segment<3>(idx::kP);
+  r.q_world_body = right_perturb(q_world_body, dx.segment<3>(idx::kTheta));
+  r.v_world += dx.segment<3>(idx::kV);
+  r.gyro_bias_rad_s += dx.segment<3>(idx::kBg);
+  r.accel_bias_m_s2 += dx.segment<3>(idx::kBa);
+  r.p_clone_world += dx.segment<3>(idx::kPd);
+  r.q_world_clone = right_perturb(q_world_clone, dx.segment<3>(idx::kThetaD));
+  return r;
+}
+
+VectorXs NominalState::boxminus(const NominalState& o) const {
+  VectorXs e;
+  e.segment<3>(idx::kP) = p_world - o.p_world;
+  e.segment<3>(idx::kTheta) = log_q(o.q_world_body.conjugate() * q_world_body);
+  e.segment<3>(idx::kV) = v_world - o.v_world;
+  e.segment<3>(idx::kBg) = gyro_bias_rad_s - o.gyro_bias_rad_s;
+  e.segment<3>(idx::kBa) = accel_bias_m_s2 - o.accel_bias_m_s2;
+  e.segment<3>(idx::kPd) = p_clone_world - o.p_clone_world;
+  e.segment<3>(idx::kThetaD) = log_q(o.q_world_clone.conjugate() * q_world_clone);
+  return e;
+}
+
+bool NominalState::all_finite() const {
+  return p_world.allFinite() && q_world_body.coeffs().allFinite() && v_world.allFinite() &&
+         gyro_bias_rad_s.allFinite() && accel_bias_m_s2.allFinite() &&
+         p_clone_world.allFinite() && q_world_clone.coeffs().allFinite();
+}
+
+void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d& covariance) {
+  if (!state.all_finite() || !covariance.allFinite()) {
+    throw std::invalid_argument("StochasticCloningEkf::initialize: non-finite state or covariance");
+  }
+  x_ = state;
+  x_.q_world_body.normalize();
+  P_.setZero();
+  P_.topLeftCorner<idx::kCore, idx::kCore>() = 0.5 * (covariance + covariance.transpose());
+  clone();
+}
+
+NominalState StochasticCloningEkf::propagate_nominal(const NominalState& x,
+                                                     const ImuReading& m, double dt,
+                                                     const Vector3d& g) {
+  // Thesis eq. 4.2 integrated over one step with the reading held constant: the attitude by
+  // the exponential map (exact for a constant rate), velocity and position by the Taylor
+  // series of constant acceleration (eq. 4.6 is the first-order part of it).
+  NominalState r = x;
+  const Vector3d w = m.gyro_rad_s - x.gyro_bias_rad_s;
+  const Vector3d a = m.accel_m_s2 - x.accel_bias_m_s2;
+  const Matrix3d R = x.q_world_body.toRotationMatrix();
+  const Vector3d acc_world = R * a + g;
+  r.p_world = x.p_world + x.v_world * dt + 0.5 * acc_world * dt * dt;
+  r.v_world = x.v_world + acc_world * dt;
+  r.q_world_body = right_perturb(x.q_world_body, w * dt);
+  return r;
+}
+
+Matrix15d StochasticCloningEkf::transition(const NominalState& x, const ImuReading& m,
+                                           double dt) {
+  // Exact Jacobian of propagate_nominal() in the error state; to first order in dt it is
+  // dF = I + cF dt with the continuous cF of the error dynamics
+  //   dp' = dv, dtheta' = -[w]x dtheta - db_g, dv' = -R [a]x dtheta - R db_a.
+  const Vector3d w = m.gyro_rad_s - x.gyro_bias_rad_s;
+  const Vector3d a = m.accel_m_s2 - x.accel_bias_m_s2;
+  const Matrix3d R = x.q_world_body.toRotationMatrix();
+  const Matrix3d R_a_hat = R * SO3::hat(a);
+  const Vector3d phi = w * dt;
+  Matrix15d F = Matrix15d::Identity();
+  F.block<3, 3>(idx::kP, idx::kTheta) = -0.5 * dt * dt * R_a_hat;
+  F.block<3, 3>(idx::kP, idx::kV) = Matrix3d::Identity() * dt;
+  F.block<3, 3>(idx::kP, idx::kBa) = -0.5 * dt * dt * R;
+  F.block<3, 3>(idx::kTheta, idx::kTheta) = SO3::exp(phi).matrix().transpose();
+  F.block<3, 3>(idx::kTheta, idx::kBg) = -SO3::right_jacobian(phi) * dt;
+  F.block<3, 3>(idx::kV, idx::kTheta) = -dt * R_a_hat;
+  F.block<3, 3>(idx::kV, idx::kBa) = -dt * R;
+  return F;
+}
+
+Matrix15d StochasticCloningEkf::process_noise(const ImuNoiseDensities& n, double dt) {
+  // dQ = dt * cQ (thesis eq. 4.5) mapped by G: dtheta <- -n_g, dv <- -R n_a (isotropic,
+  // so R drops out), db_g <- n_bg, db_a <- n_ba.
+  Matrix15d Q = Matrix15d::Zero();
+  Q.block<3, 3>(idx::kTheta, idx::kTheta).diagonal().setConstant(n.gyro_noise * n.gyro_noise * dt);
+  Q.block<3, 3>(idx::kV, idx::kV).diagonal().setConstant(n.accel_noise * n.accel_noise * dt);
+  Q.block<3, 3>(idx::kBg, idx::kBg).diagonal().setConstant(n.gyro_walk * n.gyro_walk * dt);
+  Q.block<3, 3>(idx::kBa, idx::kBa).diagonal().setConstant(n.accel_walk * n.accel_walk * dt);
+  return Q;
+}
+
+void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    throw std::invalid_argument("StochasticCloningEkf::propagate: dt must be positive");
+  }
+  if (!m.gyro_rad_s.allFinite() || !m.accel_m_s2.allFinite()) {
+    throw std::invalid_argument("StochasticCloningEkf::propagate: non-finite IMU reading");
+  }
+  const Matrix15d F = transition(x_, m, dt);
+  x_ = propagate_nominal(x_, m, dt, g_world_);
+  x_.t_ns += s_to_ns(dt);
+  // P <- F P F^T + dQ on the current block; the clone block is unchanged and the cross
+  // block becomes F P_xc (the growing correlation the thesis describes after eq. 4.6).
+  auto Pcc = P_.topLeftCorner<idx::kCore, idx::kCore>();
+  const Matrix15d FP = F * Pcc;
+  Matrix15d Pn = FP * F.transpose();
+  Pn.diagonal() += process_noise(noise_, dt).diagonal();
+  Pcc = 0.5 * (Pn + Pn.transpose());
+  const Eigen::Matrix<double, idx::kCore, 6> cross = F * P_.topRightCorner<idx::kCore, 6>();
+  P_.topRightCorner<idx::kCore, 6>() = cross;
+  P_.bottomLeftCorner<6, idx::kCore>() = cross.transpose();
+}
+
+SE3 StochasticCloningEkf::predict_relative_pose(const NominalState& x) {
+  return x.T_world_clone().inverse() * x.T_world_body();
+}
+
+Vector6d StochasticCloningEkf::residual(const SE3& measured, const SE3& predicted) {
+  Vector6d r;
+  r.head<3>() = measured.translation() - predicted.translation();
+  r.tail<3>() = (predicted.so3().inverse() * measured.so3()).log();
+  return r;
+}
+
+Matrix6xs StochasticCloningEkf::measurement_jacobian(const NominalState& x) {
+  // Thesis eq. 4.7 linearised with local attitude errors:
+  //   p_rel = R_d^T (p - p_d): d/dp = R_d^T, d/dp_d = -R_d^T, d/dtheta_d = [p_rel]x
+  //   R_rel = R_d^T R:        d/dtheta = I,  d/dtheta_d = -R_rel^T
+  const Matrix3d Rd = x.q_world_clone.toRotationMatrix();
+  const Matrix3d R = x.q_world_body.toRotationMatrix();
+  const Vector3d p_rel = Rd.transpose() * (x.p_world - x.p_clone_world);
+  Matrix6xs H = Matrix6xs::Zero();
+  H.block<3, 3>(0, idx::kP) = Rd.transpose();
+  H.block<3, 3>(0, idx::kPd) = -Rd.transpose();
+  H.block<3, 3>(0, idx::kThetaD) = SO3::hat(p_rel);
+  H.block<3, 3>(3, idx::kTheta) = Matrix3d::Identity();
+  H.block<3, 3>(3, idx::kThetaD) = -(R.transpose() * Rd);
+  return H;
+}
+
+Matrix6d StochasticCloningEkf::left_to_residual_covariance(const SE3& T, const Matrix6d& cov) {
+  // exp(xi) T = (exp(w) R, p + v + w x p + O(xi^2)): the translation moves by v - [p]x w and
+  // the rotation by R^T w in the local frame.
+  Matrix6d J = Matrix6d::Zero();
+  J.block<3, 3>(0, 0) = Matrix3d::Identity();
+  J.block<3, 3>(0, 3) = -SO3::hat(T.translation());
+  J.block<3, 3>(3, 3) = T.rotation_matrix().transpose();
+  return J * cov * J.transpose();
+}
+
+UpdateResult StochasticCloningEkf::update(const SE3& measured, const Matrix6d& cov_left,
+                                          double gate_chi2) {
+  UpdateResult result;
+  if (!measured.translation().allFinite() || !measured.unit_quaternion().coeffs().allFinite() ||
+      !cov_left.allFinite()) {
+    result.outcome = UpdateOutcome::kRejectedInvalid;
+    return result;
+  }
+  const Matrix6d Rm = left_to_residual_covariance(measured, cov_left);
+  const SE3 predicted = predict_relative_pose(x_);
+  result.residual = residual(measured, predicted);
+  const Matrix6xs H = measurement_jacobian(x_);
+  const Eigen::Matrix<double, idx::kDim, 6> PHt = P_ * H.transpose();
+  Matrix6d S = H * PHt + Rm;
+  S = 0.5 * (S + S.transpose());
+  const Eigen::LLT<Matrix6d> llt(S);
+  if (llt.info() != Eigen::Success) {
+    result.outcome = UpdateOutcome::kRejectedInvalid;
+    return result;
+  }
+  result.mahalanobis_sq = result.residual.dot(llt.solve(result.residual));
+  result.gate = gate_chi2;
+  if (gate_chi2 > 0.0 && !(result.mahalanobis_sq <= gate_chi2)) {
+    result.outcome = UpdateOutcome::kRejectedGate;
+    return result;
+  }
+  // K = P H^T S^-1 (S symmetric: K^T = S^-1 H P).
+  const Eigen::Matrix<double, idx::kDim, 6> K = llt.solve(PHt.transpose()).transpose();
+  const VectorXs dx = K * result.residual;
+  // Joseph form, thesis eq. 4.8: P = (I - K H) P (I - K H)^T + K Sigma K^T.
+  MatrixXs IKH = -K * H;
+  IKH.diagonal().array() += 1.0;
+  MatrixXs Pn = IKH * P_ * IKH.transpose() + K * Rm * K.transpose();
+  P_ = 0.5 * (Pn + Pn.transpose());
+  x_ = x_.boxplus(dx);
+  return result;
+}
+
+void StochasticCloningEkf::clone() {
+  x_.p_clone_world = x_.p_world;
+  x_.q_world_clone = x_.q_world_body;
+  x_.clone_t_ns = x_.t_ns;
+  // The clone's rows and columns become copies of the current pose's (p, theta).
+  P_.middleRows<3>(idx::kPd) = P_.middleRows<3>(idx::kP);
+  P_.middleRows<3>(idx::kThetaD) = P_.middleRows<3>(idx::kTheta);
+  P_.middleCols<3>(idx::kPd) = P_.middleCols<3>(idx::kP);
+  P_.middleCols<3>(idx::kThetaD) = P_.middleCols<3>(idx::kTheta);
+}
+
+namespace {
+
+// Regularised lower incomplete gamma P(a, x): series for x < a + 1, continued fraction else
+// (Numerical Recipes 6.2).
+double gamma_p(double a, double x) {
+  if (x <= 0.0) return 0.0;
+  const double log_prefix = -x + a * std::log(x) - std::lgamma(a);
+  if (x < a + 1.0) {
+    double ap = a, sum = 1.0 / a, del = sum;
+    for (int n = 0; n < 100000; ++n) {
+      ap += 1.0;
+      del *= x / ap;
+      sum += del;
+      if (std::abs(del) < std::abs(sum) * 1e-15) break;
+    }
+    return sum * std::exp(log_prefix);
+  }
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 100000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::abs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return 1.0 - std::exp(log_prefix) * h;
+}
+
+}  // namespace
+
+double chi_square_quantile(double probability, double dof) {
+  if (!(probability > 0.0 && probability < 1.0) || !(dof > 0.0)) {
+    throw std::invalid_argument("chi_square_quantile: probability in (0, 1) and dof > 0 needed");
+  }
+  double lo = 0.0, hi = dof + 20.0 * std::sqrt(2.0 * dof) + 50.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (gamma_p(0.5 * dof, 0.5 * mid) < probability) lo = mid; else hi = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace kestrel::fusion

@@ -1,0 +1,126 @@
+// The fusion's Jacobians against central finite differences, over many random states.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "kestrel/fusion/stochastic_cloning_ekf.hpp"
+
+namespace kestrel::fusion {
+namespace {
+
+using Eigen::Vector3d;
+
+NominalState random_state(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  auto v3 = [&](double s) { return Vector3d(n(rng), n(rng), n(rng)) * s; };
+  NominalState x;
+  x.p_world = v3(2.0);
+  x.q_world_body = SO3::exp(v3(1.0)).unit_quaternion();
+  x.v_world = v3(1.0);
+  x.gyro_bias_rad_s = v3(0.02);
+  x.accel_bias_m_s2 = v3(0.1);
+  x.p_clone_world = x.p_world + v3(0.3);
+  x.q_world_clone = SO3::exp(v3(1.0)).unit_quaternion();
+  return x;
+}
+
+ImuReading random_reading(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  return {Vector3d(n(rng), n(rng), n(rng)) * 1.5,
+          Vector3d(n(rng), n(rng), n(rng)) * 3.0 + Vector3d(0, 0, 9.81)};
+}
+
+TEST(FusionJacobians, PropagationTransitionMatchesFiniteDifferences) {
+  std::mt19937_64 rng(7);
+  const Vector3d g(0, 0, -9.81);
+  for (int trial = 0; trial < 50; ++trial) {
+    const NominalState x = random_state(rng);
+    const ImuReading m = random_reading(rng);
+    const double dt = trial % 2 ? 0.005 : 0.05;
+    const Matrix15d F = StochasticCloningEkf::transition(x, m, dt);
+    const NominalState y0 = StochasticCloningEkf::propagate_nominal(x, m, dt, g);
+    const double h = 1e-6;
+    for (int j = 0; j < idx::kCore; ++j) {
+      VectorXs d = VectorXs::Zero();
+      d(j) = h;
+      const NominalState yp = StochasticCloningEkf::propagate_nominal(x.boxplus(d), m, dt, g);
+      const NominalState ym = StochasticCloningEkf::propagate_nominal(x.boxplus(-d), m, dt, g);
+      const VectorXs col = (yp.boxminus(y0) - ym.boxminus(y0)) / (2 * h);
+      EXPECT_LT((col.head<15>() - F.col(j)).norm(), 1e-6) << "trial " << trial << " column " << j;
+    }
+  }
+}
+
+TEST(FusionJacobians, TransitionIsFirstOrderContinuousModel) {
+  // dF = I + cF dt to first order (thesis, after eq. 4.4).
+  std::mt19937_64 rng(3);
+  const NominalState x = random_state(rng);
+  const ImuReading m = random_reading(rng);
+  const double dt = 1e-5;
+  const Matrix15d F = StochasticCloningEkf::transition(x, m, dt);
+  const Eigen::Matrix3d R = x.q_world_body.toRotationMatrix();
+  const Vector3d w = m.gyro_rad_s - x.gyro_bias_rad_s, a = m.accel_m_s2 - x.accel_bias_m_s2;
+  Matrix15d cF = Matrix15d::Zero();
+  cF.block<3, 3>(idx::kP, idx::kV).setIdentity();
+  cF.block<3, 3>(idx::kTheta, idx::kTheta) = -SO3::hat(w);
+  cF.block<3, 3>(idx::kTheta, idx::kBg) = -Eigen::Matrix3d::Identity();
+  cF.block<3, 3>(idx::kV, idx::kTheta) = -R * SO3::hat(a);
+  cF.block<3, 3>(idx::kV, idx::kBa) = -R;
+  EXPECT_LT((F - (Matrix15d::Identity() + cF * dt)).norm(), 1e-8);
+}
+
+TEST(FusionJacobians, MeasurementJacobianMatchesFiniteDifferences) {
+  std::mt19937_64 rng(11);
+  for (int trial = 0; trial < 50; ++trial) {
+    const NominalState x = random_state(rng);
+    const Matrix6xs H = StochasticCloningEkf::measurement_jacobian(x);
+    const SE3 z = StochasticCloningEkf::predict_relative_pose(x);
+    const double h = 1e-6;
+    for (int j = 0; j < idx::kDim; ++j) {
+      VectorXs d = VectorXs::Zero();
+      d(j) = h;
+      // The residual r(z, h(x + dx)) ~ -H dx for a fixed measurement z = h(x).
+      const Vector6d rp = StochasticCloningEkf::residual(
+          z, StochasticCloningEkf::predict_relative_pose(x.boxplus(d)));
+      const Vector6d rm = StochasticCloningEkf::residual(
+          z, StochasticCloningEkf::predict_relative_pose(x.boxplus(-d)));
+      const Vector6d col = -(rp - rm) / (2 * h);
+      EXPECT_LT((col - H.col(j)).norm(), 1e-6) << "trial " << trial << " column " << j;
+    }
+  }
+}
+
+TEST(FusionJacobians, LeftPerturbationCovarianceMapping) {
+  // residual(exp(xi) T, T) ~ J xi: check J column by column with finite differences.
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    Vector6d t;
+    for (int i = 0; i < 6; ++i) t(i) = n(rng);
+    const SE3 T = SE3::exp(t);
+    Matrix6d J;
+    const double h = 1e-6;
+    for (int j = 0; j < 6; ++j) {
+      Vector6d d = Vector6d::Zero();
+      d(j) = h;
+      J.col(j) = (StochasticCloningEkf::residual(SE3::exp(d) * T, T) -
+                  StochasticCloningEkf::residual(SE3::exp(-d) * T, T)) / (2 * h);
+    }
+    Matrix6d C = Matrix6d::Identity();
+    C(0, 3) = C(3, 0) = 0.3;
+    C(2, 2) = 4.0;
+    const Matrix6d expected = J * C * J.transpose();
+    EXPECT_LT((StochasticCloningEkf::left_to_residual_covariance(T, C) - expected).norm(), 1e-6);
+  }
+}
+
+TEST(FusionJacobians, ChiSquareQuantiles) {
+  EXPECT_NEAR(chi_square_quantile(0.95, 3), 7.814727903, 1e-6);
+  EXPECT_NEAR(chi_square_quantile(0.999, 6), 22.45774448, 1e-6);
+  EXPECT_NEAR(chi_square_quantile(0.025, 150), 117.9845, 1e-3);
+  EXPECT_NEAR(chi_square_quantile(0.975, 150), 185.8004, 1e-3);
+  EXPECT_THROW(chi_square_quantile(1.0, 3), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace kestrel::fusion

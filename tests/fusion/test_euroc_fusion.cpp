@@ -1,0 +1,112 @@
+// The fusion on the real EuRoC V1_02 IMU with relative poses from the ground truth (issue 5
+// targets; the figures are in docs/fusion.md). Skips where the shared data is absent.
+#include <gtest/gtest.h>
+
+#include "kestrel/fusion/experiments.hpp"
+#include "kestrel/io/camera_io.hpp"
+#include "kestrel/io/trajectory_io.hpp"
+#include "test_data.hpp"
+
+namespace kestrel::fusion {
+namespace {
+
+TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
+  FusionOptions o;
+  o.init_sigma_gyro_bias_rad_s = 0.1;
+  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, {});
+  std::cout << format_result(r);
+  // Issue target, met (0.323 vs 0.780 m): fused RMSE at most half of chaining.
+  EXPECT_LE(r.fused_rmse_m, 0.5 * r.chained_rmse_m);
+  // REGRESSION GUARDS, NOT the issue targets (missed, see docs/fusion.md): gyro-bias error
+  // 0.0055 rad/s at 20 s (target 0.003) and 1.24 m in the 2 s gap (target 0.3 m), both from
+  // the yaw-axis bias, which 0.5 deg relative rotations pin only to ~0.17/sqrt(n) rad/s.
+  EXPECT_LT(r.gyro_bias_error_at_check, 0.007);
+  EXPECT_LT(r.gyro_bias_error_max_after, 0.007);
+  EXPECT_LT(r.gap_max_error_m, 1.5);
+  EXPECT_LT(r.fused_rot_rmse_deg, 5.0);
+  EXPECT_TRUE(r.gap_flag_raised);
+  EXPECT_EQ(r.counters.updates_invalid, 0u);
+  EXPECT_LE(r.counters.updates_gated, 3u);
+}
+
+TEST(FusionEuroc, V1_02StaticStartBias) {
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
+  FusionOptions o;
+  o.init_sigma_gyro_bias_rad_s = 0.1;
+  o.init_sigma_accel_bias_m_s2 = 0.2;
+  EurocExperimentOptions eo;
+  eo.static_gyro_bias_init = true;  // gyro bias from the still IMU before the first pose
+  const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
+  std::cout << format_result(r);
+  EXPECT_LE(r.fused_rmse_m, 0.5 * r.chained_rmse_m);
+  // REGRESSION GUARDS (measured 0.0038 rad/s, 1.10 m; targets 0.003 and 0.3 m missed).
+  EXPECT_LT(r.gyro_bias_error_max_after, 0.005);
+  EXPECT_LT(r.gap_max_error_m, 1.3);
+}
+
+// The evidence for reading groundtruth_cam0's quaternion as R_cam_world: the relative
+// rotations, moved to the body with T_BS, agree with the integrated gyro only when inverted.
+TEST(FusionEuroc, V1_01Cam0QuaternionIsTheInverseOrientation) {
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/groundtruth_cam0/data.csv");
+  const auto mav0 = test::shared_data_dir() / "euroc/V1_01_easy_part1/mav0";
+  const Trajectory gt = io::read_euroc_trajectory(mav0 / "groundtruth_cam0/data.csv");
+  const SE3 T_bc = *io::load_camera_file(mav0 / "cam0/sensor.yaml").T_body_sensor;
+  std::vector<io::ImuSample> imu;
+  io::ImuCsvReader reader(mav0 / "imu0/data.csv");
+  for (io::ImuSample s; reader.next(s);) imu.push_back(s);
+  Eigen::Vector3d bias = Eigen::Vector3d::Zero();
+  int n_still = 0;
+  for (const auto& s : imu) {
+    if (s.t_ns >= gt[0].t_ns) break;
+    bias += s.gyro_rad_s;
+    ++n_still;
+  }
+  ASSERT_GT(n_still, 50);
+  bias /= n_still;
+  double cos_as_is = 0.0, cos_inverted = 0.0;
+  int n = 0;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i + 1 < gt.size() && i < 300; ++i) {
+    SO3 gyro;
+    while (k + 1 < imu.size() && imu[k + 1].t_ns <= gt[i].t_ns) ++k;
+    for (std::size_t j = k; j + 1 < imu.size() && imu[j].t_ns < gt[i + 1].t_ns; ++j) {
+      const TimeNs a = std::max(imu[j].t_ns, gt[i].t_ns), b = std::min(imu[j + 1].t_ns, gt[i + 1].t_ns);
+      if (b <= a) continue;
+      gyro = gyro * SO3::exp((0.5 * (imu[j].gyro_rad_s + imu[j + 1].gyro_rad_s) - bias) * ns_to_s(b - a));
+    }
+    const Eigen::Vector3d w = gyro.log();
+    if (w.norm() < 0.01) continue;
+    const SO3 R0 = gt[i].T_world_body.so3(), R1 = gt[i + 1].T_world_body.so3();
+    const SO3 Rbc = T_bc.so3();
+    const Eigen::Vector3d as_is = (Rbc * (R0.inverse() * R1) * Rbc.inverse()).log();
+    const Eigen::Vector3d inverted = (Rbc * (R0 * R1.inverse()) * Rbc.inverse()).log();
+    cos_as_is += as_is.normalized().dot(w.normalized());
+    cos_inverted += inverted.normalized().dot(w.normalized());
+    ++n;
+  }
+  ASSERT_GT(n, 50);
+  EXPECT_LT(cos_as_is / n, 0.6);
+  EXPECT_GT(cos_inverted / n, 0.99);
+}
+
+TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/groundtruth_cam0/data.csv");
+  FusionOptions o;
+  o.init_sigma_gyro_bias_rad_s = 0.1;
+  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const auto r = run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, {});
+  std::cout << format_result(r);
+  // Before the fix (q read as R_world_cam) 2867 of 2870 updates were gated and the filter
+  // diverged; now at most a handful are.
+  EXPECT_GE(r.counters.updates_accepted, r.measurements - 20);
+  EXPECT_LT(r.fused_rmse_m, r.chained_rmse_m);
+  // REGRESSION GUARDS, NOT the targets: ratio 0.69 (target 0.5, missed); gap growth 0.175 m
+  // (max absolute error in the gap 0.44 m, target 0.3 m).
+  EXPECT_LT(r.fused_rmse_m, 0.8 * r.chained_rmse_m);
+  EXPECT_LT(r.gap_error_growth_m, 0.3);
+}
+
+}  // namespace
+}  // namespace kestrel::fusion
