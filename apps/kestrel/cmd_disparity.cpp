@@ -1,0 +1,200 @@
+// `kestrel disparity`: block matching on one stereo pair; writes the LEFT view's disparity as
+// PFM (no disparity = +inf) and, with a calibration, a 16-bit depth PNG (5000 units per metre,
+// 0 = none: the TUM RGB-D convention). Raw pairs are rectified first (EuRoC folder or Kestrel
+// `stereo_pair:` YAML); a `stereo:` YAML means the images are already rectified.
+#include <yaml-cpp/yaml.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <string>
+
+#include "commands.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/camera_io.hpp"
+#include "kestrel/io/euroc.hpp"
+#include "kestrel/io/pfm.hpp"
+#include "kestrel/io/yaml_file.hpp"
+#include "kestrel/sensor/block_matcher.hpp"
+#include "kestrel/sensor/rectification.hpp"
+#include "kestrel/sensor/stereo_evaluation.hpp"
+
+namespace kestrel::cli {
+namespace {
+namespace fs = std::filesystem;
+
+struct DisparityArgs {
+  fs::path left, right, calib, options_file, out, depth_out, color_out;
+  sensor::BlockMatcherOptions options;
+  std::string cost = "sad";
+  std::string prefilter = "xsobel";
+  bool no_subpixel = false;
+  bool force = false;
+};
+
+void check_can_write_image(const fs::path& path, const char* magic4, bool force) {
+  if (force || !fs::exists(path)) return;
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  in.read(magic, 4);
+  if (std::string(magic, 4).find(magic4) == std::string::npos) {
+    throw InputError(path.string() + ": exists and is not a " + magic4 +
+                     " image; not overwritten (use --force)");
+  }
+}
+
+/// What --calib names: a rectified rig, or a raw pair to rectify first.
+struct Calibration {
+  std::optional<RectifiedStereo> rig;
+  std::optional<sensor::StereoRectifier> rectifier;
+};
+
+Calibration load_calibration(const fs::path& path) {
+  Calibration c;
+  if (path.empty()) return c;
+  if (!fs::exists(path)) throw InputError(path.string() + ": no such calibration file or folder");
+  if (fs::is_directory(path)) {
+    const io::EurocSequence seq(path);
+    c.rectifier.emplace(sensor::StereoCalibration::from_euroc(seq));
+  } else {
+    const YAML::Node root = io::load_yaml_file(path);
+    if (root.IsMap() && root["stereo"]) {
+      c.rig = io::load_rectified_stereo(path);
+      return c;
+    }
+    if (!(root.IsMap() && root["stereo_pair"])) {
+      throw InputError(path, "stereo", "is missing (expected a `stereo:` map for a rectified rig "
+                                       "or a `stereo_pair:` map for a raw pair)");
+    }
+    c.rectifier.emplace(sensor::load_stereo_calibration(path));
+  }
+  c.rig = c.rectifier->rig();
+  return c;
+}
+
+void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
+  if (!args.options_file.empty()) {
+    // The file is the base; flags given on the command line override it.
+    sensor::BlockMatcherOptions o = sensor::BlockMatcherOptions::load_yaml(args.options_file);
+    const auto& f = args.options;
+    if (cmd.count("--max-disparity") > 0) o.max_disparity = f.max_disparity;
+    if (cmd.count("--min-disparity") > 0) o.min_disparity = f.min_disparity;
+    if (cmd.count("--block") > 0) o.block_size = f.block_size;
+    if (cmd.count("--lr-max-diff") > 0) o.lr_max_diff = f.lr_max_diff;
+    if (cmd.count("--uniqueness") > 0) o.uniqueness_ratio = f.uniqueness_ratio;
+    if (cmd.count("--texture") > 0) o.texture_threshold = f.texture_threshold;
+    if (cmd.count("--min-depth") > 0) o.min_depth_m = f.min_depth_m;
+    if (cmd.count("--max-depth") > 0) o.max_depth_m = f.max_depth_m;
+    if (cmd.count("--cost") == 0) args.cost = o.cost == sensor::MatchingCost::kSad ? "sad" : "census";
+    if (cmd.count("--prefilter") == 0) args.prefilter = o.prefilter == sensor::Prefilter::kNone ? "none" : "xsobel";
+    args.options = o;
+  }
+  if (args.cost == "census") args.options.cost = sensor::MatchingCost::kCensus;
+  else if (args.cost != "sad") throw InputError("--cost: expected sad or census, got '" + args.cost + "'");
+  if (args.prefilter == "none") args.options.prefilter = sensor::Prefilter::kNone;
+  else if (args.prefilter != "xsobel") throw InputError("--prefilter: expected xsobel or none");
+  if (args.no_subpixel) args.options.subpixel = false;
+  try {
+    args.options.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  if (args.out.extension() != ".pfm") throw InputError("--out: the disparity is written as PFM (*.pfm)");
+  Calibration calib = load_calibration(args.calib);
+  if (calib.rig && args.depth_out.empty()) {
+    args.depth_out = args.out;
+    args.depth_out.replace_extension(".depth.png");
+  }
+  if (!calib.rig && !args.depth_out.empty()) throw InputError("--depth needs --calib");
+  if (fs::exists(args.out) && !args.force) {
+    std::ifstream in(args.out, std::ios::binary);
+    char m[2] = {};
+    in.read(m, 2);
+    if (!(m[0] == 'P' && (m[1] == 'f' || m[1] == 'F'))) {
+      throw InputError(args.out.string() + ": exists and is not a PFM file; not overwritten (use --force)");
+    }
+  }
+  if (!args.depth_out.empty()) check_can_write_image(args.depth_out, "PNG", args.force);
+  if (!args.color_out.empty()) check_can_write_image(args.color_out, "PNG", args.force);
+
+  const cv::Mat left = io::read_gray_image(args.left);
+  const cv::Mat right = io::read_gray_image(args.right);
+  std::cerr << "kestrel disparity: " << args.options.describe() << "\n";
+  cv::Mat l = left, r = right;
+  if (calib.rectifier) {
+    calib.rectifier->rectify(left, right, l, r);
+    const auto& rig = *calib.rig;
+    std::cerr << "kestrel disparity: rectified: f " << rig.f << " px, baseline " << rig.baseline_m
+              << " m, c (" << rig.cu << ", " << rig.cv << ")\n";
+  }
+  sensor::BlockMatcher matcher(args.options, calib.rig);
+  cv::Mat disparity;
+  const auto t0 = std::chrono::steady_clock::now();
+  const sensor::MatchStats stats = matcher.match(l, r, disparity);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  io::write_pfm(args.out, disparity, true);
+  std::cout << "wrote " << args.out.string() << "\n";
+  if (!args.depth_out.empty()) {
+    cv::Mat depth_m, depth16(disparity.size(), CV_16U);
+    sensor::disparity_to_depth(disparity, *calib.rig, depth_m);
+    for (int y = 0; y < depth_m.rows; ++y) {
+      for (int x = 0; x < depth_m.cols; ++x) {
+        const double units = std::round(5000.0 * double(depth_m.at<float>(y, x)));  // TUM: 5000 / m
+        depth16.at<std::uint16_t>(y, x) = units > 65535.0 ? 0 : static_cast<std::uint16_t>(units);
+      }
+    }
+    if (args.depth_out.has_parent_path()) fs::create_directories(args.depth_out.parent_path());
+    if (!cv::imwrite(args.depth_out.string(), depth16)) throw InputError(args.depth_out.string() + ": cannot write");
+    std::cout << "wrote " << args.depth_out.string() << " (16-bit depth, 5000 units per metre, 0 = none)\n";
+  }
+  if (!args.color_out.empty()) {
+    if (!cv::imwrite(args.color_out.string(), sensor::colorize_disparity(disparity, args.options.max_disparity))) {
+      throw InputError(args.color_out.string() + ": cannot write");
+    }
+    std::cout << "wrote " << args.color_out.string() << "\n";
+  }
+  std::cout << "disparity " << disparity.cols << "x" << disparity.rows << ": " << stats.describe()
+            << ", " << ms << " ms\n";
+}
+
+}  // namespace
+
+void add_disparity_command(CLI::App& app) {
+  auto args = std::make_shared<DisparityArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "disparity", "Block-matching stereo on one pair: the left view's disparity as PFM "
+                   "(+inf = none) and, with --calib, a 16-bit depth PNG.");
+  auto& o = args->options;
+  cmd->add_option("--left", args->left, "left image")->required();
+  cmd->add_option("--right", args->right, "right image")->required();
+  cmd->add_option("--calib", args->calib,
+                  "calibration: Kestrel `stereo:` YAML (already rectified), Kestrel "
+                  "`stereo_pair:` YAML or an EuRoC folder (raw pair: rectified first)");
+  cmd->add_option("--max-disparity", o.max_disparity,
+                  "disparities searched: min <= d < max (OpenCV numDisparities for min 0)")
+      ->capture_default_str();
+  cmd->add_option("--min-disparity", o.min_disparity, "smallest disparity searched")->capture_default_str();
+  cmd->add_option("--block", o.block_size, "matching window side (odd)")->capture_default_str();
+  cmd->add_option("--cost", args->cost, "sad or census")->capture_default_str();
+  cmd->add_option("--prefilter", args->prefilter, "SAD prefilter: xsobel or none")->capture_default_str();
+  cmd->add_option("--lr-max-diff", o.lr_max_diff, "left-right check tolerance [px], -1 = off")->capture_default_str();
+  cmd->add_option("--uniqueness", o.uniqueness_ratio, "uniqueness margin [%], 0 = off")->capture_default_str();
+  cmd->add_option("--texture", o.texture_threshold, "least mean |gradient| in the window, 0 = off")->capture_default_str();
+  cmd->add_option("--min-depth", o.min_depth_m, "drop nearer points [m] (needs --calib)");
+  cmd->add_option("--max-depth", o.max_depth_m, "drop farther points [m] (needs --calib)");
+  cmd->add_flag("--no-subpixel", args->no_subpixel, "integer disparities");
+  cmd->add_option("--options", args->options_file, "block matcher options YAML (flags given override it)");
+  cmd->add_option("--out", args->out, "disparity PFM")->required();
+  cmd->add_option("--depth", args->depth_out, "depth PNG (default with --calib: OUT with .depth.png)");
+  cmd->add_option("--color", args->color_out, "false-colour PNG of the disparity");
+  cmd->add_flag("--force", args->force, "overwrite files of another kind");
+  cmd->callback([args, cmd] { run_disparity(*args, *cmd); });
+}
+
+}  // namespace kestrel::cli

@@ -1,0 +1,75 @@
+// `kestrel pattern`: the projector's random-line pattern (thesis 2.3) as a PNG.
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+
+#include "commands.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/sensor/pattern.hpp"
+
+namespace kestrel::cli {
+namespace {
+
+struct PatternArgs {
+  sensor::PatternOptions options;
+  std::string colors = "primaries";
+  std::uint64_t seed = 1;
+  std::filesystem::path out;
+  bool force = false;
+};
+
+/// Images carry no provenance line: refuse to replace a file that is not a PNG unless forced.
+void check_can_write_png(const std::filesystem::path& path, bool force) {
+  if (force || !std::filesystem::exists(path)) return;
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  in.read(magic, 4);
+  if (!(magic[1] == 'P' && magic[2] == 'N' && magic[3] == 'G')) {
+    throw InputError(path.string() + ": exists and is not a PNG image; not overwritten (use --force)");
+  }
+}
+
+void run_pattern(PatternArgs& args) {
+  args.options.colors = sensor::parse_pattern_colors(args.colors);
+  try {
+    args.options.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  if (args.out.extension() != ".png") throw InputError("--out: the pattern is written as PNG (*.png)");
+  check_can_write_png(args.out, args.force);
+  std::cerr << "kestrel pattern: " << args.options.describe() << ", seed " << args.seed << "\n";
+  const cv::Mat pattern = sensor::generate_pattern(args.options, args.seed);
+  if (args.out.has_parent_path()) std::filesystem::create_directories(args.out.parent_path());
+  if (!cv::imwrite(args.out.string(), pattern)) throw InputError(args.out.string() + ": cannot write");
+  std::cout << "wrote " << args.out.string() << "\n";
+}
+
+}  // namespace
+
+void add_pattern_command(CLI::App& app) {
+  auto args = std::make_shared<PatternArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "pattern", "Generate the projector pattern: random lines of random colour, position and "
+                 "orientation (thesis 2.3); the same seed gives the same image.");
+  auto& o = args->options;
+  cmd->add_option("--lines", o.lines, "number of line segments")->capture_default_str();
+  cmd->add_option("--width", o.width, "image width [px] (projector resolution)")->capture_default_str();
+  cmd->add_option("--height", o.height, "image height [px]")->capture_default_str();
+  cmd->add_option("--min-length", o.min_length_px, "shortest segment [px]")->capture_default_str();
+  cmd->add_option("--max-length", o.max_length_px, "longest segment [px]")->capture_default_str();
+  cmd->add_option("--min-thickness", o.min_thickness_px, "thinnest line [px]")->capture_default_str();
+  cmd->add_option("--max-thickness", o.max_thickness_px, "thickest line [px]")->capture_default_str();
+  cmd->add_option("--colors", args->colors, "colour set: primaries, random or white")
+      ->capture_default_str();
+  cmd->add_flag("--aliased{false}", o.antialiased, "draw hard (not antialiased) lines");
+  cmd->add_option("--seed", args->seed, "random seed")->capture_default_str();
+  cmd->add_option("--out", args->out, "output PNG")->required();
+  cmd->add_flag("--force", args->force, "overwrite a file that is not a PNG");
+  cmd->callback([args] { run_pattern(*args); });
+}
+
+}  // namespace kestrel::cli

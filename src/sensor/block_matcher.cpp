@@ -1,0 +1,787 @@
+// Block matching on a rectified pair: running column sums of per-pixel costs (one row in, one
+// row out per image row), running box sums along the row, winner-take-all per pixel. Costs are
+// uint16 with the disparities of one pixel contiguous and stored in REVERSED order (lane
+// k <-> d = max_lane_d - k), so that the right-image pixels a lane row needs are contiguous and
+// increasing: right index = left column + lane. Optimisation notes: docs/stereo.md.
+#include "kestrel/sensor/block_matcher.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/yaml_file.hpp"
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+namespace kestrel::sensor {
+namespace {
+
+constexpr std::uint16_t kMaskedCost = 0xFFFF;
+
+/// box += add - sub over n uint16 lanes.
+inline void slide_u16(std::uint16_t* box, const std::uint16_t* add, const std::uint16_t* sub,
+                      int n) {
+#if defined(__AVX2__)
+  for (int i = 0; i < n; i += 16) {
+    auto* b = reinterpret_cast<__m256i*>(box + i);
+    __m256i s = _mm256_loadu_si256(b);
+    s = _mm256_add_epi16(s, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(add + i)));
+    s = _mm256_sub_epi16(s, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(sub + i)));
+    _mm256_storeu_si256(b, s);
+  }
+#else
+  for (int i = 0; i < n; ++i) {
+    box[i] = static_cast<std::uint16_t>(box[i] + add[i] - sub[i]);
+  }
+#endif
+}
+
+/// colsum[k] += |ln - rn[k]| - |lo - ro[k]| for k < n: one SAD column slides down one row.
+inline void slide_sad_column(std::uint16_t* colsum, std::uint8_t ln, const std::uint8_t* rn,
+                             std::uint8_t lo, const std::uint8_t* ro, int n) {
+#if defined(__AVX2__)
+  const __m256i vln = _mm256_set1_epi8(static_cast<char>(ln));
+  const __m256i vlo = _mm256_set1_epi8(static_cast<char>(lo));
+  for (int i = 0; i < n; i += 32) {
+    const __m256i r_new = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rn + i));
+    const __m256i r_old = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ro + i));
+    const __m256i a_new =
+        _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
+    const __m256i a_old =
+        _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
+    auto* s0p = reinterpret_cast<__m256i*>(colsum + i);
+    auto* s1p = reinterpret_cast<__m256i*>(colsum + i + 16);
+    __m256i s0 = _mm256_loadu_si256(s0p);
+    __m256i s1 = _mm256_loadu_si256(s1p);
+    s0 = _mm256_add_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_new)));
+    s0 = _mm256_sub_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_old)));
+    s1 = _mm256_add_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_new, 1)));
+    s1 = _mm256_sub_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_old, 1)));
+    _mm256_storeu_si256(s0p, s0);
+    _mm256_storeu_si256(s1p, s1);
+  }
+#else
+  for (int i = 0; i < n; ++i) {
+    const int a_new = std::abs(int{ln} - int{rn[i]});
+    const int a_old = std::abs(int{lo} - int{ro[i]});
+    colsum[i] = static_cast<std::uint16_t>(colsum[i] + a_new - a_old);
+  }
+#endif
+}
+
+inline int clampi(int v, int lo, int hi) { return std::min(std::max(v, lo), hi); }
+
+const char* cost_name(MatchingCost c) { return c == MatchingCost::kSad ? "sad" : "census"; }
+const char* prefilter_name(Prefilter p) { return p == Prefilter::kNone ? "none" : "xsobel"; }
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Options
+
+int BlockMatcherOptions::max_pixel_cost() const {
+  if (cost == MatchingCost::kCensus) return census_window * census_window - 1;
+  return prefilter == Prefilter::kXSobel ? 2 * prefilter_cap : 255;
+}
+
+void BlockMatcherOptions::validate() const {
+  const auto fail = [](const std::string& what) {
+    throw std::invalid_argument("block matcher: " + what);
+  };
+  if (min_disparity < 0) fail("min_disparity must be >= 0, got " + std::to_string(min_disparity));
+  if (max_disparity <= min_disparity) {
+    fail("the disparity range is empty: max_disparity (" + std::to_string(max_disparity) +
+         ") must exceed min_disparity (" + std::to_string(min_disparity) + ")");
+  }
+  if (max_disparity - min_disparity > 1024) fail("at most 1024 disparities are searched");
+  if (block_size < 3 || block_size % 2 == 0) {
+    fail("block_size must be odd and >= 3, got " + std::to_string(block_size));
+  }
+  if (prefilter_cap < 1 || prefilter_cap > 127) {
+    fail("prefilter_cap must lie in [1, 127], got " + std::to_string(prefilter_cap));
+  }
+  if (census_window != 3 && census_window != 5 && census_window != 7) {
+    fail("census_window must be 3, 5 or 7, got " + std::to_string(census_window));
+  }
+  if (static_cast<long>(block_size) * block_size * max_pixel_cost() > 65535) {
+    fail("block_size " + std::to_string(block_size) + " is too large for " + cost_name(cost) +
+         " with prefilter " + prefilter_name(prefilter) + ": block_size^2 * " +
+         std::to_string(max_pixel_cost()) + " must stay below 65536");
+  }
+  if (uniqueness_ratio < 0 || uniqueness_ratio > 100) {
+    fail("uniqueness_ratio must lie in [0, 100], got " + std::to_string(uniqueness_ratio));
+  }
+  if (!(texture_threshold >= 0.0)) fail("texture_threshold must be >= 0");
+  if (!(min_depth_m >= 0.0) || !(max_depth_m > min_depth_m)) {
+    fail("need 0 <= min_depth_m < max_depth_m");
+  }
+}
+
+std::string BlockMatcherOptions::describe() const {
+  std::ostringstream os;
+  os << "disparity=[" << min_disparity << "," << max_disparity << ") block=" << block_size
+     << " cost=" << cost_name(cost);
+  if (cost == MatchingCost::kSad) {
+    os << " prefilter=" << prefilter_name(prefilter);
+    if (prefilter == Prefilter::kXSobel) os << "(cap " << prefilter_cap << ")";
+  } else {
+    os << " census_window=" << census_window;
+  }
+  os << " subpixel=" << (subpixel ? "on" : "off") << " lr_max_diff=" << lr_max_diff
+     << " uniqueness=" << uniqueness_ratio << "% texture=" << texture_threshold
+     << " depth=[" << min_depth_m << "," << max_depth_m << "] m";
+  return os.str();
+}
+
+BlockMatcherOptions BlockMatcherOptions::load_yaml(const std::filesystem::path& path) {
+  const YAML::Node root = io::load_yaml_file(path);
+  if (!root.IsMap()) throw InputError(path, "", "must be a map of block matcher options");
+  BlockMatcherOptions o;
+  for (const auto& kv : root) {
+    const auto key = kv.first.as<std::string>();
+    const YAML::Node& v = kv.second;
+    try {
+      if (key == "min_disparity") o.min_disparity = v.as<int>();
+      else if (key == "max_disparity") o.max_disparity = v.as<int>();
+      else if (key == "block_size") o.block_size = v.as<int>();
+      else if (key == "prefilter_cap") o.prefilter_cap = v.as<int>();
+      else if (key == "census_window") o.census_window = v.as<int>();
+      else if (key == "subpixel") o.subpixel = v.as<bool>();
+      else if (key == "lr_max_diff") o.lr_max_diff = v.as<int>();
+      else if (key == "uniqueness_ratio") o.uniqueness_ratio = v.as<int>();
+      else if (key == "texture_threshold") o.texture_threshold = v.as<double>();
+      else if (key == "min_depth_m") o.min_depth_m = v.as<double>();
+      else if (key == "max_depth_m") o.max_depth_m = v.as<double>();
+      else if (key == "cost") {
+        const auto s = v.as<std::string>();
+        if (s == "sad") o.cost = MatchingCost::kSad;
+        else if (s == "census") o.cost = MatchingCost::kCensus;
+        else throw InputError(path, key, "must be sad or census, got '" + s + "'");
+      } else if (key == "prefilter") {
+        const auto s = v.as<std::string>();
+        if (s == "none") o.prefilter = Prefilter::kNone;
+        else if (s == "xsobel") o.prefilter = Prefilter::kXSobel;
+        else throw InputError(path, key, "must be none or xsobel, got '" + s + "'");
+      } else {
+        throw InputError(path, key, "is not a block matcher option");
+      }
+    } catch (const YAML::Exception&) {
+      throw InputError(path, key, "has the wrong type");
+    }
+  }
+  try {
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(path.string() + ": " + e.what());
+  }
+  return o;
+}
+
+std::string MatchStats::describe() const {
+  std::ostringstream os;
+  os.setf(std::ios::fixed);
+  os.precision(1);
+  const auto pct = [&](std::size_t n) {
+    return pixels == 0 ? 0.0 : 100.0 * static_cast<double>(n) / static_cast<double>(pixels);
+  };
+  os << "fill " << pct(valid) << "% (rejected: texture " << pct(rejected_texture)
+     << "%, uniqueness " << pct(rejected_uniqueness) << "%, left-right " << pct(rejected_lr)
+     << "%, depth range " << pct(rejected_depth) << "%, unreachable " << pct(unreachable)
+     << "%)";
+  return os.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Matcher
+
+BlockMatcher::BlockMatcher(BlockMatcherOptions options, std::optional<RectifiedStereo> rig)
+    : options_(options), rig_(rig) {
+  options_.validate();
+  if (rig_) rig_->validate();
+  const bool depth_range = options_.min_depth_m > 0.0 || std::isfinite(options_.max_depth_m);
+  if (depth_range && !rig_) {
+    throw std::invalid_argument(
+        "block matcher: a depth range (min_depth_m/max_depth_m) needs a calibrated rig");
+  }
+  if (rig_) {
+    const double bf = rig_->baseline_m * rig_->f;
+    d_min_valid_ = std::isfinite(options_.max_depth_m)
+                       ? static_cast<float>(bf / options_.max_depth_m) : 0.0F;
+    d_max_valid_ = options_.min_depth_m > 0.0 ? static_cast<float>(bf / options_.min_depth_m)
+                                              : kNoDisparity;
+  }
+  radius_ = options_.block_size / 2;
+  const int n = options_.max_disparity - options_.min_disparity;
+  lanes_ = (n + 31) / 32 * 32;  // whole AVX2 registers of uint8 per-pixel costs
+  pad_left_ = lanes_ - 1 + options_.min_disparity + radius_;
+}
+
+void BlockMatcher::prepare(int width, int height) {
+  if (width == width_ && height == height_) return;
+  width_ = width;
+  height_ = height;
+  const int r = radius_;
+  const int block = 2 * r + 1;
+  row_stride_l_ = width + 2 * r;
+  row_stride_r_ = width + r + pad_left_;
+  const auto cols = static_cast<std::size_t>(row_stride_l_);
+  const auto lanes = static_cast<std::size_t>(lanes_);
+  const bool census = options_.cost == MatchingCost::kCensus;
+  left_.assign(census ? 0 : cols * static_cast<std::size_t>(height), 0);
+  right_.assign(census ? 0 : static_cast<std::size_t>(row_stride_r_) * static_cast<std::size_t>(height), 0);
+  census_l_.assign(census ? cols * static_cast<std::size_t>(height) : 0, 0);
+  census_r_.assign(census ? static_cast<std::size_t>(row_stride_r_) * static_cast<std::size_t>(height) : 0, 0);
+  cost_ring_.assign(census ? static_cast<std::size_t>(block) * cols * lanes : 0, 0);
+  column_sums_.assign(cols * lanes, 0);
+  texture_columns_.assign(cols, 0);
+  volume_.assign(static_cast<std::size_t>(width) * lanes, 0);
+  right_min_.assign(static_cast<std::size_t>(width) + lanes, 0);
+  row_disp_.assign(static_cast<std::size_t>(width), -1);
+  row_state_.assign(static_cast<std::size_t>(width), 0);
+}
+
+namespace {
+
+cv::Mat to_gray8(const cv::Mat& image, cv::Mat& buffer, const char* which) {
+  if (image.empty()) throw InputError(std::string("stereo: the ") + which + " image is empty");
+  if (image.type() == CV_8UC1) return image;
+  if (image.type() == CV_8UC3) {
+    cv::cvtColor(image, buffer, cv::COLOR_BGR2GRAY);
+    return buffer;
+  }
+  if (image.type() == CV_32FC1) {
+    image.convertTo(buffer, CV_8U);  // saturating, rounded
+    return buffer;
+  }
+  throw InputError(std::string("stereo: the ") + which +
+                   " image must be 8-bit grey, 8-bit BGR or float grey, got OpenCV type " +
+                   std::to_string(image.type()));
+}
+
+}  // namespace
+
+void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
+  const cv::Mat l = to_gray8(left, gray_l_, "left");
+  const cv::Mat r = to_gray8(right, gray_r_, "right");
+  const int w = width_, h = height_, rad = radius_;
+  const auto pixel = [](const cv::Mat& img, int y, int x) {
+    return img.ptr<std::uint8_t>(y)[x];
+  };
+  if (options_.cost == MatchingCost::kSad) {
+    // Prefiltered value per image pixel, then replicated into the padded rows.
+    const int cap = options_.prefilter_cap;
+    const bool sobel = options_.prefilter == Prefilter::kXSobel;
+    const auto filter_row = [&](const cv::Mat& img, int y, std::uint8_t* out, int stride,
+                                int pad) {
+      const std::uint8_t* r0 = img.ptr<std::uint8_t>(std::max(y - 1, 0));
+      const std::uint8_t* r1 = img.ptr<std::uint8_t>(y);
+      const std::uint8_t* r2 = img.ptr<std::uint8_t>(std::min(y + 1, h - 1));
+      std::uint8_t* o = out + pad;
+      if (!sobel) {
+        std::memcpy(o, r1, static_cast<std::size_t>(w));
+      } else {
+        // Horizontal Sobel, clamped to +-cap and shifted to [0, 2 cap] (as OpenCV StereoBM);
+        // the interior loop has no index clamps so that it vectorises.
+        const auto at = [&](int x) {
+          const int xm = std::max(x - 1, 0), xp = std::min(x + 1, w - 1);
+          const int g = (r0[xp] - r0[xm]) + 2 * (r1[xp] - r1[xm]) + (r2[xp] - r2[xm]);
+          return static_cast<std::uint8_t>(clampi(g, -cap, cap) + cap);
+        };
+        o[0] = at(0);
+        for (int x = 1; x < w - 1; ++x) {
+          const int g = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
+          o[x] = static_cast<std::uint8_t>(std::min(std::max(g, -cap), cap) + cap);
+        }
+        if (w > 1) o[w - 1] = at(w - 1);
+      }
+      std::memset(out, out[pad], static_cast<std::size_t>(pad));
+      std::memset(out + pad + w, out[pad + w - 1], static_cast<std::size_t>(stride - pad - w));
+    };
+    for (int y = 0; y < h; ++y) {
+      filter_row(l, y, left_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_l_), row_stride_l_, rad);
+      filter_row(r, y, right_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_), row_stride_r_, pad_left_);
+    }
+  } else {
+    const int cr = options_.census_window / 2;
+    const auto census_row = [&](const cv::Mat& img, int y, std::uint64_t* out, int stride,
+                                int pad) {
+      for (int c = 0; c < stride; ++c) {
+        const int x = clampi(c - pad, 0, w - 1);
+        const int centre = pixel(img, y, x);
+        std::uint64_t bits = 0;
+        for (int dy = -cr; dy <= cr; ++dy) {
+          const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1));
+          for (int dx = -cr; dx <= cr; ++dx) {
+            if (dx == 0 && dy == 0) continue;
+            bits = (bits << 1) | static_cast<std::uint64_t>(row[clampi(x + dx, 0, w - 1)] < centre);
+          }
+        }
+        out[c] = bits;
+      }
+    };
+    for (int y = 0; y < h; ++y) {
+      census_row(l, y, census_l_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_l_), row_stride_l_, rad);
+      census_row(r, y, census_r_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_), row_stride_r_, pad_left_);
+    }
+  }
+  // Texture: |I(x+1) - I(x-1)| of the raw left image (a header, no copy).
+  texture_source_ = l;
+}
+
+namespace {
+
+/// |I(y, x+1) - I(y, x-1)| for padded column c (x = c - r, clamped to the image).
+inline std::uint32_t gradient_at(const std::uint8_t* row, int c, int r, int w) {
+  const int x = clampi(c - r, 0, w - 1);
+  return static_cast<std::uint32_t>(
+      std::abs(int{row[std::min(x + 1, w - 1)]} - int{row[std::max(x - 1, 0)]}));
+}
+
+}  // namespace
+
+void BlockMatcher::init_column_sums() {
+  const int r = radius_, h = height_, w = width_;
+  const int cols = row_stride_l_, lanes = lanes_;
+  const int block = 2 * r + 1;
+  std::fill(column_sums_.begin(), column_sums_.end(), std::uint16_t{0});
+  std::fill(texture_columns_.begin(), texture_columns_.end(), 0U);
+  for (int k = -r; k <= r; ++k) {
+    const int y = clampi(k, 0, h - 1);
+    const std::uint8_t* grow = texture_source_.ptr<std::uint8_t>(y);
+    for (int c = 0; c < cols; ++c) texture_columns_[static_cast<std::size_t>(c)] += gradient_at(grow, c, r, w);
+    if (options_.cost == MatchingCost::kSad) {
+      const std::uint8_t* lrow = left_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
+      const std::uint8_t* rrow = right_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_);
+      for (int c = 0; c < cols; ++c) {
+        std::uint16_t* cs = column_sums_.data() + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
+        for (int i = 0; i < lanes; ++i) {
+          cs[i] = static_cast<std::uint16_t>(cs[i] + std::abs(int{lrow[c]} - int{rrow[c + i]}));
+        }
+      }
+    } else {
+      const std::uint64_t* lrow = census_l_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
+      const std::uint64_t* rrow = census_r_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_);
+      const int slot = ((k % block) + block) % block;
+      std::uint8_t* ring = cost_ring_.data() + static_cast<std::size_t>(slot) * static_cast<std::size_t>(cols) * static_cast<std::size_t>(lanes);
+      for (int c = 0; c < cols; ++c) {
+        std::uint16_t* cs = column_sums_.data() + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
+        std::uint8_t* rc = ring + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
+        for (int i = 0; i < lanes; ++i) {
+          const auto pc = static_cast<std::uint8_t>(std::popcount(lrow[c] ^ rrow[c + i]));
+          rc[i] = pc;
+          cs[i] = static_cast<std::uint16_t>(cs[i] + pc);
+        }
+      }
+    }
+  }
+}
+
+void BlockMatcher::advance_column_sums(int y) {
+  // The window of row y covers rows y-r..y+r: row y+r comes in, row y-r-1 goes out.
+  const int r = radius_, h = height_, w = width_;
+  const int cols = row_stride_l_, lanes = lanes_;
+  const int block = 2 * r + 1;
+  const int k_new = y + r;
+  const int y_new = std::min(k_new, h - 1);
+  const int y_old = std::max(y - r - 1, 0);
+  const std::uint8_t* g_new = texture_source_.ptr<std::uint8_t>(y_new);
+  const std::uint8_t* g_old = texture_source_.ptr<std::uint8_t>(y_old);
+  for (int c = 0; c < cols; ++c) {
+    texture_columns_[static_cast<std::size_t>(c)] += gradient_at(g_new, c, r, w) - gradient_at(g_old, c, r, w);
+  }
+  const auto lane_stride = static_cast<std::size_t>(lanes);
+  // SAD columns are slid by the row scan itself, just before it uses them.
+  if (options_.cost == MatchingCost::kCensus) {
+    const std::uint64_t* lrow = census_l_.data() + static_cast<std::size_t>(y_new) * static_cast<std::size_t>(cols);
+    const std::uint64_t* rrow = census_r_.data() + static_cast<std::size_t>(y_new) * static_cast<std::size_t>(row_stride_r_);
+    const int slot = k_new % block;  // the slot of row y-r-1 (same residue)
+    std::uint8_t* ring = cost_ring_.data() + static_cast<std::size_t>(slot) * static_cast<std::size_t>(cols) * lane_stride;
+    for (int c = 0; c < cols; ++c) {
+      std::uint16_t* cs = column_sums_.data() + static_cast<std::size_t>(c) * lane_stride;
+      std::uint8_t* rc = ring + static_cast<std::size_t>(c) * lane_stride;
+      const std::uint64_t lc = lrow[c];
+      for (int i = 0; i < lanes; ++i) {
+        const auto pc = static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i]));
+        cs[i] = static_cast<std::uint16_t>(cs[i] + pc - rc[i]);
+        rc[i] = pc;
+      }
+    }
+  }
+}
+
+namespace {
+
+// Row-scan outcome per pixel, before the left-right check and the depth range.
+enum RowState : std::uint8_t { kCandidate = 0, kUnreachable, kLowTexture, kNotUnique };
+
+/// Everything one row scan reads and writes. Lanes below first(x) = max(lanes - num,
+/// d_top - x) are out of range (d >= max_disparity, or d > x: outside the right image).
+struct RowScan {
+  std::uint16_t* column_sums;  // cols x lanes: slid to this row, or by the scan (slide_*)
+  const std::uint32_t* texture_columns;
+  int width, radius, lanes, num, d_top, uniqueness;
+  std::uint32_t texture_min;
+  std::uint16_t* volume;      // width x lanes: the box costs of the row (for checks)
+  std::uint16_t* right_min;   // width + lanes: best cost of right pixel xr at xr + d_top
+  std::int32_t* winner_lane;  // width
+  std::uint8_t* state;        // width
+  // SAD: the scan slides column x + 2r down one row itself (row in: *_new, row out: *_old)
+  // just before using it. Null: the column sums are already slid (census, first row).
+  const std::uint8_t* left_new = nullptr;
+  const std::uint8_t* left_old = nullptr;
+  const std::uint8_t* right_new = nullptr;
+  const std::uint8_t* right_old = nullptr;
+
+  [[nodiscard]] int first_lane(int x) const { return std::max(lanes - num, d_top - x); }
+};
+
+/// The portable scan: the same results as the AVX2 one, one lane at a time.
+void scan_row_generic(const RowScan& s) {
+  const auto L = static_cast<std::size_t>(s.lanes);
+  const int block = 2 * s.radius + 1;
+  const int cols = s.width + 2 * s.radius;
+  if (s.left_new != nullptr) {
+    for (int c = 0; c < cols; ++c) {
+      slide_sad_column(s.column_sums + static_cast<std::size_t>(c) * L, s.left_new[c],
+                       s.right_new + c, s.left_old[c], s.right_old + c, s.lanes);
+    }
+  }
+  std::vector<std::uint16_t>& box = [&]() -> std::vector<std::uint16_t>& {
+    thread_local std::vector<std::uint16_t> b;
+    b.assign(L, 0);
+    return b;
+  }();
+  std::uint32_t tex = 0;
+  for (int c = 0; c < block; ++c) {
+    const std::uint16_t* col = s.column_sums + static_cast<std::size_t>(c) * L;
+    for (std::size_t i = 0; i < L; ++i) box[i] = static_cast<std::uint16_t>(box[i] + col[i]);
+    tex += s.texture_columns[c];
+  }
+  std::fill(s.right_min, s.right_min + s.width + s.lanes, kMaskedCost);
+  for (int x = 0; x < s.width; ++x) {
+    if (x > 0) {
+      slide_u16(box.data(), s.column_sums + static_cast<std::size_t>(x + 2 * s.radius) * L,
+                s.column_sums + static_cast<std::size_t>(x - 1) * L, s.lanes);
+      tex += s.texture_columns[x + 2 * s.radius] - s.texture_columns[x - 1];
+    }
+    std::uint16_t* vol = s.volume + static_cast<std::size_t>(x) * L;
+    std::memcpy(vol, box.data(), L * sizeof(std::uint16_t));
+    const int first = s.first_lane(x);
+    s.winner_lane[x] = -1;
+    if (first >= s.lanes) {
+      s.state[x] = kUnreachable;
+      continue;
+    }
+    int best = first;
+    for (int k = first; k < s.lanes; ++k) {
+      if (vol[k] < vol[best]) best = k;
+      // Lane k at x is the candidate d = d_top - k for right pixel x - d = x - d_top + k.
+      s.right_min[x + k] = std::min(s.right_min[x + k], vol[k]);
+    }
+    const int c0 = vol[best];
+    if (tex < s.texture_min) {
+      s.state[x] = kLowTexture;
+      continue;
+    }
+    if (s.uniqueness > 0) {
+      int second = kMaskedCost;
+      for (int k = first; k < s.lanes; ++k) {
+        if (k < best - 1 || k > best + 1) second = std::min(second, int{vol[k]});
+      }
+      if (second * 100 <= c0 * (100 + s.uniqueness)) {
+        s.state[x] = kNotUnique;
+        continue;
+      }
+    }
+    s.state[x] = kCandidate;
+    s.winner_lane[x] = best;
+  }
+}
+
+#if defined(__AVX2__)
+/// The AVX2 scan for lanes = 16 NV: the box costs, the right view's running minima and the
+/// winner search stay in registers; the right view's window slides down one lane per pixel.
+template <int NV>
+void scan_row_avx2(const RowScan& s) {
+  const auto L = static_cast<std::size_t>(s.lanes);
+  const int block = 2 * s.radius + 1;
+  std::uint16_t* cs = s.column_sums;
+  const auto load = [](const std::uint16_t* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  };
+  const bool slide = s.left_new != nullptr;
+  // Column c slid down one row, returned in registers and stored (SAD only).
+  const auto slide_column = [&](int c, __m256i* out) {
+    std::uint16_t* col = cs + static_cast<std::size_t>(c) * L;
+    if (!slide) {
+      for (int i = 0; i < NV; ++i) out[i] = load(col + 16 * i);
+      return;
+    }
+    const __m256i vln = _mm256_set1_epi8(static_cast<char>(s.left_new[c]));
+    const __m256i vlo = _mm256_set1_epi8(static_cast<char>(s.left_old[c]));
+    for (int i = 0; i < NV; i += 2) {
+      const __m256i r_new = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s.right_new + c + 16 * i));
+      const __m256i r_old = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s.right_old + c + 16 * i));
+      const __m256i a_new = _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
+      const __m256i a_old = _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
+      __m256i s0 = load(col + 16 * i);
+      __m256i s1 = load(col + 16 * i + 16);
+      s0 = _mm256_add_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_new)));
+      s0 = _mm256_sub_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_old)));
+      s1 = _mm256_add_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_new, 1)));
+      s1 = _mm256_sub_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_old, 1)));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(col + 16 * i), s0);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(col + 16 * i + 16), s1);
+      out[i] = s0;
+      out[i + 1] = s1;
+    }
+  };
+  const __m256i ones = _mm256_set1_epi16(-1);
+  const __m256i iota = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m256i two = _mm256_set1_epi16(2);
+  __m256i box[NV], win[NV];
+  for (int i = 0; i < NV; ++i) {
+    box[i] = _mm256_setzero_si256();
+    win[i] = ones;
+  }
+  std::uint32_t tex = 0;
+  for (int c = 0; c < block; ++c) {
+    __m256i col[NV];
+    slide_column(c, col);
+    for (int i = 0; i < NV; ++i) box[i] = _mm256_add_epi16(box[i], col[i]);
+    tex += s.texture_columns[c];
+  }
+  // Pixels x < x_full have out-of-range lanes (first_lane(x) > 0) that must be masked.
+  const int x_full = s.lanes > s.num ? s.width : std::min(s.width, std::max(0, s.d_top + 1));
+  const auto pixel = [&](int x, auto masked_tag) {
+    constexpr bool kMasked = decltype(masked_tag)::value;
+    if (x > 0) {
+      __m256i add[NV];
+      slide_column(x + 2 * s.radius, add);
+      const std::uint16_t* sub = cs + static_cast<std::size_t>(x - 1) * L;
+      for (int i = 0; i < NV; ++i) {
+        box[i] = _mm256_sub_epi16(_mm256_add_epi16(box[i], add[i]), load(sub + 16 * i));
+      }
+      tex += s.texture_columns[x + 2 * s.radius] - s.texture_columns[x - 1];
+    }
+    std::uint16_t* vol = s.volume + static_cast<std::size_t>(x) * L;
+    for (int i = 0; i < NV; ++i) _mm256_storeu_si256(reinterpret_cast<__m256i*>(vol + 16 * i), box[i]);
+    const int first = kMasked ? s.first_lane(x) : 0;
+    __m256i v[NV];
+    for (int i = 0; i < NV; ++i) {
+      if constexpr (kMasked) {
+        const __m256i f = _mm256_set1_epi16(static_cast<short>(first - 16 * i));
+        v[i] = _mm256_or_si256(box[i], _mm256_cmpgt_epi16(f, iota));
+      } else {
+        v[i] = box[i];
+      }
+    }
+    // Right view: lane k holds right pixel x - d_top + k; lane 0 is complete after this x.
+    for (int i = 0; i < NV; ++i) win[i] = _mm256_min_epu16(win[i], v[i]);
+    s.right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(win[0], 0));
+    for (int i = 0; i < NV; ++i) {
+      const __m256i next = i + 1 < NV ? win[i + 1] : ones;
+      win[i] = _mm256_alignr_epi8(_mm256_permute2x128_si256(win[i], next, 0x21), win[i], 2);
+    }
+    s.winner_lane[x] = -1;
+    if (kMasked && first >= s.lanes) {
+      s.state[x] = kUnreachable;
+      return;
+    }
+    __m256i m = v[0];
+    for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
+    const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
+    const int c0 = _mm_extract_epi16(_mm_minpos_epu16(m8), 0);
+    const __m256i target = _mm256_set1_epi16(static_cast<short>(c0));
+    int best = 0;
+    for (int i = 0; i < NV; i += 2) {
+      const auto lo = static_cast<std::uint32_t>(_mm256_movemask_epi8(_mm256_cmpeq_epi16(v[i], target)));
+      const auto hi = static_cast<std::uint32_t>(_mm256_movemask_epi8(_mm256_cmpeq_epi16(v[i + 1], target)));
+      const std::uint64_t mask = lo | (static_cast<std::uint64_t>(hi) << 32);
+      if (mask != 0) {
+        best = 16 * i + std::countr_zero(mask) / 2;
+        break;
+      }
+    }
+    if (tex < s.texture_min) {
+      s.state[x] = kLowTexture;
+      return;
+    }
+    if (s.uniqueness > 0) {
+      // Lanes within 1 of the winner: (k - (best - 1)) as unsigned <= 2.
+      __m256i m2 = ones;
+      for (int i = 0; i < NV; ++i) {
+        const __m256i t = _mm256_sub_epi16(iota, _mm256_set1_epi16(static_cast<short>(best - 1 - 16 * i)));
+        const __m256i near = _mm256_cmpeq_epi16(_mm256_min_epu16(t, two), t);
+        m2 = _mm256_min_epu16(m2, _mm256_or_si256(v[i], near));
+      }
+      const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
+      const int second = _mm_extract_epi16(_mm_minpos_epu16(s8), 0);
+      if (second * 100 <= c0 * (100 + s.uniqueness)) {
+        s.state[x] = kNotUnique;
+        return;
+      }
+    }
+    s.state[x] = kCandidate;
+    s.winner_lane[x] = best;
+  };
+  for (int x = 0; x < x_full; ++x) pixel(x, std::true_type{});
+  for (int x = x_full; x < s.width; ++x) pixel(x, std::false_type{});
+  // Right pixels not yet emitted: lane k now holds right pixel width - d_top + k.
+  for (int i = 0; i < NV; ++i) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(s.right_min + s.width + 16 * i), win[i]);
+  }
+  // Columns past the last window (x + 2r > width - 1 + 2r never happens): all were slid.
+}
+#endif
+
+}  // namespace
+
+void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
+  const int w = width_, lanes = lanes_;
+  const int block = 2 * radius_ + 1;
+  const int num = options_.max_disparity - options_.min_disparity;
+  const int d_top = options_.min_disparity + lanes - 1;  // disparity of lane 0
+  const auto L = static_cast<std::size_t>(lanes);
+  RowScan scan{column_sums_.data(), texture_columns_.data(), w, radius_, lanes, num, d_top,
+               options_.uniqueness_ratio,
+               static_cast<std::uint32_t>(std::ceil(options_.texture_threshold * 2.0 * block * block)),
+               volume_.data(), right_min_.data(), row_disp_.data(), row_state_.data()};
+  if (options_.cost == MatchingCost::kSad && y > 0) {
+    const int r = radius_, h = height_;
+    const int y_new = std::min(y + r, h - 1), y_old = std::max(y - r - 1, 0);
+    scan.left_new = left_.data() + static_cast<std::size_t>(y_new) * static_cast<std::size_t>(row_stride_l_);
+    scan.left_old = left_.data() + static_cast<std::size_t>(y_old) * static_cast<std::size_t>(row_stride_l_);
+    scan.right_new = right_.data() + static_cast<std::size_t>(y_new) * static_cast<std::size_t>(row_stride_r_);
+    scan.right_old = right_.data() + static_cast<std::size_t>(y_old) * static_cast<std::size_t>(row_stride_r_);
+  }
+#if defined(__AVX2__)
+  switch (lanes / 16) {
+    case 2: scan_row_avx2<2>(scan); break;
+    case 4: scan_row_avx2<4>(scan); break;
+    case 6: scan_row_avx2<6>(scan); break;
+    case 8: scan_row_avx2<8>(scan); break;
+    case 10: scan_row_avx2<10>(scan); break;
+    case 12: scan_row_avx2<12>(scan); break;
+    case 14: scan_row_avx2<14>(scan); break;
+    case 16: scan_row_avx2<16>(scan); break;
+    default: scan_row_generic(scan); break;
+  }
+#else
+  scan_row_generic(scan);
+#endif
+
+  const bool census = options_.cost == MatchingCost::kCensus;
+  const int lr = options_.lr_max_diff;
+  for (int x = 0; x < w; ++x) {
+    out[x] = kNoDisparity;
+    switch (row_state_[static_cast<std::size_t>(x)]) {
+      case kUnreachable: ++stats.unreachable; continue;
+      case kLowTexture: ++stats.rejected_texture; continue;
+      case kNotUnique: ++stats.rejected_uniqueness; continue;
+      default: break;
+    }
+    const int best = row_disp_[static_cast<std::size_t>(x)];
+    const int d = d_top - best;
+    const std::uint16_t* vol = volume_.data() + static_cast<std::size_t>(x) * L;
+    const int c0 = vol[best];
+    if (lr >= 0) {
+      // Left-right check without a second pass: the right pixel x - d has its best cost
+      // right_min; the check passes iff a candidate along its diagonal within lr px of d
+      // (pixel x + j, disparity d + j) reaches that cost (ties count as consistent).
+      const int right_best = right_min_[static_cast<std::size_t>(x - d + d_top)];
+      int diag = c0;
+      for (int j = -lr; j <= lr && diag > right_best; ++j) {
+        const int xj = x + j, kj = best - j;
+        if (j == 0 || xj < 0 || xj >= w || kj < 0 || kj >= lanes) continue;
+        if (kj < std::max(lanes - num, d_top - xj)) continue;  // out of range there
+        diag = std::min(diag, int{volume_[static_cast<std::size_t>(xj) * L + static_cast<std::size_t>(kj)]});
+      }
+      if (diag > right_best) {
+        ++stats.rejected_lr;
+        continue;
+      }
+    }
+    float delta = 0.0F;
+    const int first = std::max(lanes - num, d_top - x);
+    // A zero cost is an exact match: no fit (an asymmetric cost curve would bias it).
+    if (options_.subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
+      const int cm = vol[best + 1], cp = vol[best - 1];  // costs at d - 1 and d + 1
+      if (census) {
+        const int denom = cm + cp - 2 * c0;
+        if (denom > 0) delta = static_cast<float>(cm - cp) / static_cast<float>(2 * denom);
+      } else {
+        // Equiangular (V-shaped) fit, the right model for an L1 cost (Shimizu & Okutomi 2001).
+        const int denom = std::max(cm, cp) - c0;
+        if (denom > 0) delta = static_cast<float>(cm - cp) / static_cast<float>(2 * denom);
+      }
+    }
+    const float ds = static_cast<float>(d) + delta;
+    if (ds < d_min_valid_ || ds > d_max_valid_) {
+      ++stats.rejected_depth;
+      continue;
+    }
+    out[x] = ds;
+    ++stats.valid;
+  }
+}
+
+MatchStats BlockMatcher::match(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity) {
+  if (left.empty() || right.empty()) {
+    throw InputError(std::string("stereo: the ") + (left.empty() ? "left" : "right") +
+                     " image is empty");
+  }
+  if (left.size() != right.size()) {
+    throw InputError("stereo: the left image is " + std::to_string(left.cols) + "x" +
+                     std::to_string(left.rows) + " but the right one is " +
+                     std::to_string(right.cols) + "x" + std::to_string(right.rows));
+  }
+  if (rig_ && (rig_->width != left.cols || rig_->height != left.rows)) {
+    throw InputError("stereo: the images are " + std::to_string(left.cols) + "x" +
+                     std::to_string(left.rows) + " but the calibration is for " +
+                     std::to_string(rig_->width) + "x" + std::to_string(rig_->height));
+  }
+  prepare(left.cols, left.rows);
+  preprocess(left, right);
+  disparity.create(height_, width_, CV_32F);
+  MatchStats stats;
+  stats.pixels = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
+  init_column_sums();
+  for (int y = 0; y < height_; ++y) {
+    if (y > 0) advance_column_sums(y);
+    match_row(y, disparity.ptr<float>(y), stats);
+  }
+  return stats;
+}
+
+cv::Mat BlockMatcher::match(const cv::Mat& left, const cv::Mat& right) {
+  cv::Mat disparity;
+  match(left, right, disparity);
+  return disparity;
+}
+
+void disparity_to_depth(const cv::Mat& disparity_px, const RectifiedStereo& rig,
+                        cv::Mat& depth_m) {
+  CV_Assert(disparity_px.type() == CV_32F);
+  depth_m.create(disparity_px.size(), CV_32F);
+  const auto bf = static_cast<float>(rig.baseline_m * rig.f);
+  for (int y = 0; y < disparity_px.rows; ++y) {
+    const float* d = disparity_px.ptr<float>(y);
+    float* z = depth_m.ptr<float>(y);
+    for (int x = 0; x < disparity_px.cols; ++x) {
+      z[x] = (has_disparity(d[x]) && d[x] > 0.0F) ? bf / d[x] : 0.0F;  // Z = B f / d, eq. 2.9
+    }
+  }
+}
+
+}  // namespace kestrel::sensor

@@ -1,0 +1,277 @@
+// The projector light (pinhole light casting the pattern, with shadows and fall-off) and the
+// rendering of active stereo pairs; see include/kestrel/sensor/projector.hpp, docs/stereo.md.
+#include "kestrel/sensor/projector.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/sim/scenes.hpp"
+#include "kestrel/sim/smooth_trajectory.hpp"
+
+namespace kestrel::sensor {
+
+void ProjectorOptions::validate() const {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("ProjectorOptions: " + what);
+  };
+  if (width < 2 || height < 2) {
+    fail("width and height must be >= 2, got " + std::to_string(width) + "x" +
+         std::to_string(height));
+  }
+  if (!(horizontal_fov_deg > 0.0 && horizontal_fov_deg < 170.0)) {
+    fail("horizontal_fov_deg must lie in (0, 170), got " + std::to_string(horizontal_fov_deg));
+  }
+  if (!(power >= 0.0 && std::isfinite(power))) fail("power must be finite and >= 0");
+  if (!(reference_distance_m > 0.0 && std::isfinite(reference_distance_m))) {
+    fail("reference_distance_m must be finite and > 0");
+  }
+  if (!(blur_sigma_px >= 0.0 && blur_sigma_px <= 50.0)) fail("blur_sigma_px must lie in [0, 50]");
+  if (!T_left_projector.translation().allFinite()) fail("T_left_projector must be finite");
+}
+
+std::string ProjectorOptions::describe() const {
+  std::ostringstream os;
+  const Eigen::Vector3d& t = T_left_projector.translation();
+  os << "projector " << width << "x" << height << ", hfov " << horizontal_fov_deg
+     << " deg, at (" << t.x() << ", " << t.y() << ", " << t.z() << ") m from the left camera, power "
+     << power << " at " << reference_distance_m << " m, 1/d^2"
+     << (lambertian ? ", Lambertian" : "") << ", blur " << blur_sigma_px << " px"
+     << (shadows ? ", shadows" : ", no shadows");
+  return os.str();
+}
+
+PinholeCamera ProjectorOptions::camera() const {
+  validate();
+  const double half_fov_rad = 0.5 * horizontal_fov_deg * std::numbers::pi / 180.0;
+  const double f = 0.5 * static_cast<double>(width) / std::tan(half_fov_rad);
+  PinholeIntrinsics k;
+  k.fx = k.fy = f;
+  // Pixel centres at integer coordinates (as the renderer): the image spans [-0.5, w - 0.5].
+  k.cx = 0.5 * static_cast<double>(width - 1);
+  k.cy = 0.5 * static_cast<double>(height - 1);
+  k.width = width;
+  k.height = height;
+  return PinholeCamera(k);
+}
+
+ProjectorLight::ProjectorLight(const SE3& T_world_projector, const cv::Mat& pattern,
+                               const ProjectorOptions& options)
+    : T_world_projector_(T_world_projector),
+      T_projector_world_(T_world_projector.inverse()),
+      options_(options),
+      camera_(options.camera()) {
+  if (pattern.empty()) throw InputError("projector: empty pattern image");
+  if (pattern.cols != options.width || pattern.rows != options.height) {
+    throw InputError("projector: the pattern is " + std::to_string(pattern.cols) + "x" +
+                     std::to_string(pattern.rows) + ", the projector " +
+                     std::to_string(options.width) + "x" + std::to_string(options.height));
+  }
+  if (pattern.depth() != CV_8U || (pattern.channels() != 1 && pattern.channels() != 3)) {
+    throw InputError("projector: the pattern must be 8-bit grey or BGR");
+  }
+  cv::Mat bgr;
+  if (pattern.channels() == 1) {
+    cv::cvtColor(pattern, bgr, cv::COLOR_GRAY2BGR);
+  } else {
+    bgr = pattern;
+  }
+  bgr.convertTo(pattern_, CV_32FC3, 1.0 / 255.0);
+  if (options.blur_sigma_px > 0.0) {
+    cv::GaussianBlur(pattern_, pattern_, cv::Size(0, 0), options.blur_sigma_px,
+                     options.blur_sigma_px, cv::BORDER_CONSTANT);
+  }
+}
+
+sim::ColorBgr ProjectorLight::illuminate(const sim::SurfacePoint& point,
+                                         const sim::ShadingContext& context) const {
+  const sim::ColorBgr dark(0.0F, 0.0F, 0.0F);
+  const Eigen::Vector3d p = T_projector_world_ * point.p_world;
+  if (!(p.z() > 1e-6)) return dark;  // behind the projector
+  const double u = camera_.fx() * p.x() / p.z() + camera_.cx();
+  const double v = camera_.fy() * p.y() / p.z() + camera_.cy();
+  // Outside the image [-0.5, size - 0.5]: unlit.
+  if (!(u >= -0.5 && v >= -0.5 && u <= options_.width - 0.5 && v <= options_.height - 0.5)) {
+    return dark;
+  }
+  const Eigen::Vector3d& c_world = T_world_projector_.translation();
+  const Eigen::Vector3d to_projector = c_world - point.p_world;
+  const double d = to_projector.norm();
+  double gain = options_.power * (options_.reference_distance_m / d) *
+                (options_.reference_distance_m / d);
+  if (options_.lambertian) {
+    const double cos_theta = point.n_world.dot(to_projector) / d;
+    if (!(cos_theta > 0.0)) return dark;
+    gain *= cos_theta;
+  }
+  // Bilinear sample, edge pixels clamped (the image ends at the half-pixel border).
+  const int w = options_.width, h = options_.height;
+  const double uc = std::clamp(u, 0.0, static_cast<double>(w - 1));
+  const double vc = std::clamp(v, 0.0, static_cast<double>(h - 1));
+  const int u0 = std::min(static_cast<int>(uc), w - 2);
+  const int v0 = std::min(static_cast<int>(vc), h - 2);
+  const auto a = static_cast<float>(uc - u0);
+  const auto b = static_cast<float>(vc - v0);
+  const auto* r0 = pattern_.ptr<cv::Vec3f>(v0);
+  const auto* r1 = pattern_.ptr<cv::Vec3f>(v0 + 1);
+  const cv::Vec3f top = r0[u0] * (1.0F - a) + r0[u0 + 1] * a;
+  const cv::Vec3f bottom = r1[u0] * (1.0F - a) + r1[u0 + 1] * a;
+  const cv::Vec3f sample = top * (1.0F - b) + bottom * b;
+  if (sample[0] <= 0.0F && sample[1] <= 0.0F && sample[2] <= 0.0F) return dark;
+  // The shadow ray last: it is the expensive part (all faces).
+  if (options_.shadows && context.scene.occluded(point.p_world, c_world)) return dark;
+  return sample * static_cast<float>(gain);
+}
+
+std::string ProjectorLight::describe() const {
+  const Eigen::Vector3d& t = T_world_projector_.translation();
+  std::ostringstream os;
+  os << "projector light at (" << t.x() << ", " << t.y() << ", " << t.z() << "): "
+     << options_.describe();
+  return os.str();
+}
+
+ProjectorMode parse_projector_mode(const std::string& name) {
+  if (name == "off" || name == "passive") return ProjectorMode::kOff;
+  if (name == "dark") return ProjectorMode::kDarkRoom;
+  if (name == "ambient") return ProjectorMode::kAmbientAndPattern;
+  throw InputError("projector mode: expected off, dark or ambient, got '" + name + "'");
+}
+
+const char* projector_mode_name(ProjectorMode mode) {
+  switch (mode) {
+    case ProjectorMode::kOff:
+      return "off";
+    case ProjectorMode::kDarkRoom:
+      return "dark";
+    case ProjectorMode::kAmbientAndPattern:
+      return "ambient";
+  }
+  return "?";
+}
+
+sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left,
+                                const cv::Mat& pattern, ProjectorMode mode,
+                                const ProjectorOptions& options) {
+  if (mode == ProjectorMode::kOff) return scene;
+  sim::Scene lit = scene;
+  if (mode == ProjectorMode::kDarkRoom) {
+    // The same geometry without the scene's lights (a Scene cannot drop lights: rebuild it).
+    lit = sim::Scene(scene.name(), scene.description());
+    for (const sim::Primitive& primitive : scene.primitives()) lit.add(primitive);
+    lit.set_T_world_start(scene.T_world_start());
+    lit.set_ambient(0.0F);
+  }
+  // World-fixed: each view's ShadingContext carries its own camera pose, which must not move
+  // the projector, so the light is placed once from the LEFT camera's pose.
+  lit.add_light(std::make_shared<ProjectorLight>(T_world_left * options.T_left_projector,
+                                                 pattern, options));
+  return lit;
+}
+
+sim::StereoFrame render_active_stereo(const sim::Scene& scene, const RectifiedStereo& rig,
+                                      const SE3& T_world_left, const cv::Mat& pattern,
+                                      ProjectorMode mode, const ProjectorOptions& options,
+                                      const sim::RenderOptions& render_options,
+                                      std::uint64_t seed) {
+  const sim::Scene lit = scene_with_projector(scene, T_world_left, pattern, mode, options);
+  sim::StereoRenderer renderer(rig, render_options, seed);
+  sim::StereoFrame frame;
+  renderer.render(lit, T_world_left, frame);
+  return frame;
+}
+
+cv::Mat covisible_mask(const sim::StereoFrame& frame, double relative_tolerance) {
+  const cv::Mat& truth = frame.disparity_px;
+  const cv::Mat& z_left = frame.left.depth_m;
+  const cv::Mat& z_right = frame.right.depth_m;
+  if (truth.empty() || truth.size() != z_left.size() || z_left.size() != z_right.size()) {
+    throw std::invalid_argument("covisible_mask: the frame's buffers differ in size");
+  }
+  cv::Mat mask(truth.size(), CV_8U, cv::Scalar(0));
+  for (int v = 0; v < truth.rows; ++v) {
+    const auto* d = truth.ptr<float>(v);
+    const auto* zl = z_left.ptr<float>(v);
+    const auto* zr = z_right.ptr<float>(v);
+    auto* m = mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < truth.cols; ++u) {
+      if (!(d[u] > 0.0F && std::isfinite(d[u]) && zl[u] > 0.0F)) continue;
+      const long ur = std::lround(static_cast<double>(u) - static_cast<double>(d[u]));
+      if (ur < 0 || ur >= truth.cols) continue;
+      const double z = static_cast<double>(zl[u]);
+      if (std::abs(static_cast<double>(zr[ur]) - z) <= relative_tolerance * z) m[u] = 255;
+    }
+  }
+  return mask;
+}
+
+std::string StereoExperimentOptions::describe() const {
+  std::ostringstream os;
+  os << "cameras " << width << "x" << height << ", f " << f_px << " px, baseline " << baseline_m
+     << " m, intensity noise sigma " << intensity_sigma << ", active mode "
+     << projector_mode_name(active_mode) << ", seed " << seed << "\n  " << projector.describe()
+     << "\n  pattern: " << pattern.describe() << "\n  matcher: " << matcher.describe();
+  return os.str();
+}
+
+namespace {
+
+StereoExperimentRun match_and_score(std::string name, sim::StereoFrame frame,
+                                    BlockMatcher& matcher, const cv::Mat& covisible,
+                                    double bad_threshold_px) {
+  StereoExperimentRun run;
+  run.name = std::move(name);
+  run.frame = std::move(frame);
+  run.stats = matcher.match(run.frame.left.color_bgr, run.frame.right.color_bgr, run.disparity_px);
+  run.score = score_disparity(run.disparity_px, run.frame.disparity_px, bad_threshold_px, covisible);
+  return run;
+}
+
+}  // namespace
+
+StereoExperimentResult run_stereo_experiment(const StereoExperimentOptions& options) {
+  options.projector.validate();
+  options.pattern.validate();
+  options.matcher.validate();
+  if (options.pattern.width != options.projector.width ||
+      options.pattern.height != options.projector.height) {
+    throw std::invalid_argument("stereo experiment: the pattern size must be the projector's");
+  }
+  RectifiedStereo rig;
+  rig.f = options.f_px;
+  rig.cu = 0.5 * static_cast<double>(options.width - 1);
+  rig.cv = 0.5 * static_cast<double>(options.height - 1);
+  rig.baseline_m = options.baseline_m;
+  rig.width = options.width;
+  rig.height = options.height;
+  rig.validate();
+
+  const sim::Scene scene = sim::make_scene("wall", options.seed);
+  const SE3 T_world_left = scene.T_world_start() * sim::forward_camera_mount();
+  sim::RenderOptions render;
+  render.noise.intensity_sigma = options.intensity_sigma;  // depth stays exact (the truth)
+
+  StereoExperimentResult result;
+  result.pattern = generate_pattern(options.pattern, options.seed);
+  // Different noise seeds for the two renderings: independent frames, as in a real capture.
+  sim::StereoFrame passive = render_active_stereo(scene, rig, T_world_left, result.pattern,
+                                                  ProjectorMode::kOff, options.projector, render,
+                                                  options.seed * 2 + 1);
+  sim::StereoFrame active = render_active_stereo(scene, rig, T_world_left, result.pattern,
+                                                 options.active_mode, options.projector, render,
+                                                 options.seed * 2 + 2);
+  result.covisible = covisible_mask(passive);
+  BlockMatcher matcher(options.matcher, rig);
+  result.passive = match_and_score("passive", std::move(passive), matcher, result.covisible,
+                                   options.bad_threshold_px);
+  result.active = match_and_score(std::string("active-") + projector_mode_name(options.active_mode),
+                                  std::move(active), matcher, result.covisible,
+                                  options.bad_threshold_px);
+  return result;
+}
+
+}  // namespace kestrel::sensor
