@@ -1,5 +1,99 @@
-// placeholder: being written
+// `kestrel evaluate`: ATE, RPE and per-axis errors of an estimated trajectory against ground
+// truth, as the TUM RGB-D benchmark scripts compute them; optional CSVs and figures.
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+
 #include "commands.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/eval/evaluation.hpp"
+#include "kestrel/io/output_guard.hpp"
+#include "kestrel/io/trajectory_io.hpp"
+
 namespace kestrel::cli {
-void add_evaluate_command(CLI::App& app) { app.add_subcommand("evaluate", "(not yet implemented)"); }
+namespace {
+
+constexpr const char* kCommand = "evaluate";
+
+struct EvaluateArgs {
+  std::filesystem::path gt_path;
+  std::filesystem::path est_path;
+  std::filesystem::path plot_dir;  // empty: no files
+  eval::EvaluationOptions options;
+  bool force = false;
+};
+
+void require_positive(double value, const char* flag) {
+  if (!std::isfinite(value) || value <= 0.0) {
+    throw InputError(std::string(flag) + ": must be a positive number of seconds, got " +
+                     io::format_double(value));
+  }
+}
+
+Trajectory load(const std::filesystem::path& path, const char* role) {
+  const io::TrajectoryFormat format = io::detect_trajectory_format(path);
+  Trajectory trajectory = io::read_trajectory(path);
+  if (trajectory.empty()) throw InputError(path.string() + ": holds no poses");
+  std::cerr << "kestrel evaluate: " << role << " " << path.string() << ": " << trajectory.size()
+            << " poses (" << io::format_name(format) << ")\n";
+  return trajectory;
+}
+
+void run_evaluate(const EvaluateArgs& args) {
+  std::cerr << "kestrel evaluate: gt=" << args.gt_path.string() << " est=" << args.est_path.string()
+            << " plot=" << (args.plot_dir.empty() ? "(none)" : args.plot_dir.string())
+            << " force=" << (args.force ? "true" : "false") << " " << args.options.describe()
+            << "\n";
+  require_positive(args.options.max_diff_s, "--max-diff");
+  require_positive(args.options.rpe_delta_s, "--delta");
+  // Claim the output folder before the work, so that a refusal comes at once.
+  if (!args.plot_dir.empty()) io::claim_output_dir(args.plot_dir, kCommand, args.force);
+
+  const Trajectory gt = load(args.gt_path, "ground truth");
+  const Trajectory est = load(args.est_path, "estimate");
+  eval::Evaluation evaluation;
+  try {
+    evaluation = eval::evaluate(gt, est, args.options);
+  } catch (const InputError& e) {
+    // The metrics do not know the file names; say which files did not fit together.
+    throw InputError("evaluating " + args.est_path.string() + " against " + args.gt_path.string() +
+                     ": " + e.what());
+  }
+
+  std::cout << eval::format_report(evaluation);
+  if (!args.plot_dir.empty()) {
+    for (const auto& path :
+         eval::write_evaluation_files(args.plot_dir, gt, est, evaluation, kCommand, args.force)) {
+      std::cout << "wrote " << path.string() << "\n";
+    }
+  }
+  // The last line is for scripts: keep its format stable.
+  std::cout << eval::format_summary_line(evaluation) << std::endl;
+}
+
+}  // namespace
+
+void add_evaluate_command(CLI::App& app) {
+  auto args = std::make_shared<EvaluateArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "evaluate",
+      "Evaluate an estimated trajectory against ground truth (TUM RGB-D benchmark ATE and "
+      "RPE, per-axis errors). Files: TUM or EuRoC CSV, detected from the content.");
+  cmd->add_option("--gt", args->gt_path, "ground-truth trajectory file")->required();
+  cmd->add_option("--est", args->est_path, "estimated trajectory file")->required();
+  cmd->add_option("--plot", args->plot_dir,
+                  "folder for the per-axis and RPE CSVs, the aligned estimate and PNG figures");
+  cmd->add_option("--max-diff", args->options.max_diff_s,
+                  "ATE association: largest time difference of a gt/est pair [s]")
+      ->capture_default_str();
+  cmd->add_option("--delta", args->options.rpe_delta_s, "RPE window length [s]")
+      ->capture_default_str();
+  cmd->add_flag("--force", args->force,
+                "write into a folder or over files not written by "
+                "`kestrel evaluate`");
+  cmd->callback([args] { run_evaluate(*args); });
+}
+
 }  // namespace kestrel::cli

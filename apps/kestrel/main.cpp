@@ -12,6 +12,12 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "kestrel 0.1.0");
   kestrel::cli::add_evaluate_command(app);
   kestrel::cli::add_render_command(app);
+  kestrel::cli::add_odometry_command(app);
+  kestrel::cli::add_fuse_command(app);
+  kestrel::cli::add_fuse_eval_command(app);
+  kestrel::cli::add_pattern_command(app);
+  kestrel::cli::add_disparity_command(app);
+  kestrel::cli::add_stereo_experiment_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -11,38 +11,6 @@
 namespace kestrel::io {
 namespace fs = std::filesystem;
 
-std::optional<TimeNs> parse_seconds_to_ns(std::string_view text) {
-  if (text.empty()) return std::nullopt;
-  bool negative = false;
-  if (text.front() == '-' || text.front() == '+') {
-    negative = text.front() == '-';
-    text.remove_prefix(1);
-  }
-  const auto dot = text.find('.');
-  const std::string_view whole = text.substr(0, dot);
-  std::string_view frac = dot == std::string_view::npos ? std::string_view() : text.substr(dot + 1);
-  if (whole.empty() && frac.empty()) return std::nullopt;
-  const auto digits = [](std::string_view s) {
-    return std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
-  };
-  if (!digits(whole) || !digits(frac) || whole.size() > 10) return std::nullopt;
-  TimeNs seconds = 0;
-  for (char c : whole) seconds = seconds * 10 + (c - '0');
-  TimeNs nanos = 0;
-  int places = 0;
-  for (char c : frac) {
-    if (places == 9) {
-      if (c >= '5') ++nanos;  // round on the 10th decimal, ignore the rest
-      break;
-    }
-    nanos = nanos * 10 + (c - '0');
-    ++places;
-  }
-  for (; places < 9; ++places) nanos *= 10;
-  const TimeNs t = seconds * 1'000'000'000 + nanos;
-  return negative ? -t : t;
-}
-
 std::vector<TimedFile> read_tum_file_list(const fs::path& list_file) {
   TextLineReader reader(list_file);
   std::vector<TimedFile> out;

@@ -87,6 +87,11 @@ ProjectorLight::ProjectorLight(const SE3& T_world_projector, const cv::Mat& patt
   }
 }
 
+void ProjectorLight::set_pose(const SE3& T_world_projector) {
+  T_world_projector_ = T_world_projector;
+  T_projector_world_ = T_world_projector.inverse();
+}
+
 sim::ColorBgr ProjectorLight::illuminate(const sim::SurfacePoint& point,
                                          const sim::ShadingContext& context) const {
   const sim::ColorBgr dark(0.0F, 0.0F, 0.0F);
@@ -154,9 +159,9 @@ const char* projector_mode_name(ProjectorMode mode) {
   return "?";
 }
 
-sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left,
-                                const cv::Mat& pattern, ProjectorMode mode,
-                                const ProjectorOptions& options) {
+sim::Scene scene_with_projector(const sim::Scene& scene,
+                                const std::shared_ptr<const ProjectorLight>& light,
+                                ProjectorMode mode) {
   if (mode == ProjectorMode::kOff) return scene;
   sim::Scene lit = scene;
   if (mode == ProjectorMode::kDarkRoom) {
@@ -166,11 +171,20 @@ sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left
     lit.set_T_world_start(scene.T_world_start());
     lit.set_ambient(0.0F);
   }
+  lit.add_light(light);
+  return lit;
+}
+
+sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left,
+                                const cv::Mat& pattern, ProjectorMode mode,
+                                const ProjectorOptions& options) {
+  if (mode == ProjectorMode::kOff) return scene;
   // World-fixed: each view's ShadingContext carries its own camera pose, which must not move
   // the projector, so the light is placed once from the LEFT camera's pose.
-  lit.add_light(std::make_shared<ProjectorLight>(T_world_left * options.T_left_projector,
-                                                 pattern, options));
-  return lit;
+  return scene_with_projector(
+      scene,
+      std::make_shared<ProjectorLight>(T_world_left * options.T_left_projector, pattern, options),
+      mode);
 }
 
 sim::StereoFrame render_active_stereo(const sim::Scene& scene, const RectifiedStereo& rig,

@@ -13,30 +13,16 @@
 #include <string>
 
 #include "kestrel/fusion/simulation.hpp"
+#include "run_cli.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::fusion {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (const char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using test::quoted;
+using test::RunResult;
+using test::slurp;
 
 constexpr TimeNs kT0 = 1'403'715'000'000'000'000;  // EuRoC-like absolute time stamps
 
@@ -59,17 +45,7 @@ class CmdFuse : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  RunResult run(const std::string& arguments) {
-    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-    const std::string command = quoted(KESTREL_BINARY) + " " + arguments + " >" +
-                                quoted(out.string()) + " 2>" + quoted(err.string());
-    const int status = std::system(command.c_str());
-    RunResult r;
-    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-  }
+  RunResult run(const std::string& arguments) const { return test::run_kestrel(dir_, arguments); }
 
   void write_calib(const fs::path& path, bool with_gyro_noise) {
     std::ofstream y(path);

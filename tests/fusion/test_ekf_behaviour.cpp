@@ -214,7 +214,9 @@ TEST(FusionBehaviour, ImuGapOfSecondsIsFlaggedAndCovarianceGrows) {
     } else if (!flagged) {
       sigma_before = f.sigma.head<3>().norm();
     }
-    if (f.t_ns > 2'000'000'000) EXPECT_TRUE(f.flags & kFlagVoDropout);
+    if (f.t_ns > 2'000'000'000) {
+      EXPECT_TRUE(f.flags & kFlagVoDropout);
+    }
   }
   EXPECT_TRUE(flagged);
   EXPECT_GT(sigma_after, sigma_before);

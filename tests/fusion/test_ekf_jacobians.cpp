@@ -12,7 +12,13 @@ using Eigen::Vector3d;
 
 NominalState random_state(std::mt19937_64& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  auto v3 = [&](double s) { return Vector3d(n(rng), n(rng), n(rng)) * s; };
+  auto v3 = [&](double s) {
+    // One draw per statement: the order of draws is fixed (it is not within one call).
+    const double x = n(rng);
+    const double y = n(rng);
+    const double z = n(rng);
+    return Vector3d(s * x, s * y, s * z);
+  };
   NominalState x;
   x.p_world = v3(2.0);
   x.q_world_body = SO3::exp(v3(1.0)).unit_quaternion();

@@ -4,9 +4,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "kestrel/core/time.hpp"
 
 namespace kestrel::io {
 
@@ -37,5 +40,9 @@ double parse_double(std::string_view field, const TextLineReader& reader, std::s
 /// Parses a whole field as an int64 (a nanosecond time stamp); accepts a ".000" fraction of
 /// zeros, as in the EuRoC ground-truth CSVs.
 long long parse_int64(std::string_view field, const TextLineReader& reader, std::size_t index);
+
+/// Exact decimal-seconds to nanoseconds ("1305031102.175304" -> 1305031102175304000),
+/// without going through a double. Returns nullopt if `text` is not a plain decimal number.
+std::optional<TimeNs> parse_seconds_to_ns(std::string_view text);
 
 }  // namespace kestrel::io

@@ -73,8 +73,4 @@ class TumRgbdSequence {
   std::vector<std::pair<std::size_t, std::size_t>> pairs_;
 };
 
-/// Exact decimal-seconds to nanoseconds ("1305031102.175304" -> 1305031102175304000),
-/// without going through a double. Returns nullopt if `text` is not a plain decimal number.
-std::optional<TimeNs> parse_seconds_to_ns(std::string_view text);
-
 }  // namespace kestrel::io

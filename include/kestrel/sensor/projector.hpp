@@ -66,6 +66,9 @@ class ProjectorLight final : public sim::LightSource {
   [[nodiscard]] std::string describe() const override;
 
   [[nodiscard]] const SE3& T_world_projector() const { return T_world_projector_; }
+  /// Moves the projector (a projector on a moving rig: once per frame, between renders, never
+  /// during one). Keeps the prepared pattern, so a move costs nothing.
+  void set_pose(const SE3& T_world_projector);
   [[nodiscard]] const PinholeCamera& camera() const { return camera_; }
   /// The pattern as the light samples it: CV_32FC3 in [0, 1], blurred.
   [[nodiscard]] const cv::Mat& pattern() const { return pattern_; }
@@ -94,6 +97,11 @@ const char* projector_mode_name(ProjectorMode mode);
 sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left,
                                 const cv::Mat& pattern, ProjectorMode mode,
                                 const ProjectorOptions& options);
+/// The same with a given light (for a projector that moves with the rig: keep the pointer and
+/// ProjectorLight::set_pose() it before each frame). For kOff the light is not added.
+sim::Scene scene_with_projector(const sim::Scene& scene,
+                                const std::shared_ptr<const ProjectorLight>& light,
+                                ProjectorMode mode);
 
 /// Renders a rectified stereo pair of `scene` from T_world_left lit as `mode` says, with the
 /// sensor noise of `render_options`; the frame holds left, right and the true left disparity.
