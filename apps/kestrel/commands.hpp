@@ -13,5 +13,6 @@ void add_fuse_eval_command(CLI::App& app);
 void add_pattern_command(CLI::App& app);
 void add_disparity_command(CLI::App& app);
 void add_stereo_experiment_command(CLI::App& app);
+void add_fly_command(CLI::App& app);
 
 }  // namespace kestrel::cli

@@ -1,0 +1,133 @@
+// `kestrel fly`: the closed-loop flight of the whole pipeline in simulation (issue 6).
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/flight/flight_report.hpp"
+#include "kestrel/flight/flight_simulation.hpp"
+#include "kestrel/io/output_guard.hpp"
+#include "kestrel/sim/scenes.hpp"
+#include "progress.hpp"
+
+namespace kestrel::cli {
+namespace {
+
+struct FlyArgs {
+  std::string scenario = "hover";
+  double duration_s = 0.0;  // 0: the scenario's default
+  std::uint64_t seed = 1;
+  std::string out;
+  bool force = false;
+  bool list = false;
+  double vo_off_at_s = -1.0;
+  double vo_off_for_s = 2.0;
+  double latency_s = -1.0;
+  std::string projector;
+  std::string vehicle_yaml, controller_yaml, imu_yaml, safety_yaml, tracker_yaml, matcher_yaml;
+};
+
+void run_fly(const FlyArgs& a) {
+  if (a.list) {
+    std::cout << "scenarios (--scenario):\n";
+    for (const auto& e : flight::scenario_catalogue()) {
+      std::cout << "  " << std::left << std::setw(10) << e.name << e.description << "\n";
+    }
+    return;
+  }
+  if (a.out.empty()) throw InputError("fly: --out DIR is required");
+  flight::FlightOptions options;
+  options.seed = a.seed;
+  if (!a.vehicle_yaml.empty()) options.vehicle = sim::QuadrotorParameters::load(a.vehicle_yaml);
+  if (!a.controller_yaml.empty()) {
+    options.controller = control::PositionControllerOptions::load(a.controller_yaml);
+  }
+  if (!a.imu_yaml.empty()) options.imu_noise = io::load_imu_noise(a.imu_yaml);
+  if (!a.safety_yaml.empty()) options.safety = control::SafetyOptions::load(a.safety_yaml);
+  if (!a.tracker_yaml.empty()) {
+    options.vision.tracker = odometry::DirectTrackerOptions::load(a.tracker_yaml);
+  }
+  if (!a.matcher_yaml.empty()) {
+    options.vision.matcher = sensor::BlockMatcherOptions::load_yaml(a.matcher_yaml);
+  }
+  if (!a.projector.empty()) options.vision.projector_mode = sensor::parse_projector_mode(a.projector);
+  if (a.latency_s >= 0.0) options.vision_latency_s = a.latency_s;
+  if (a.vo_off_at_s >= 0.0) {
+    if (!(a.vo_off_for_s > 0.0)) throw InputError("fly: --vo-off-for must be positive");
+    options.vo_off_at_s = a.vo_off_at_s;
+    options.vo_off_for_s = a.vo_off_for_s;
+  }
+
+  const sim::Scene probe = sim::make_scene(
+      flight::make_scenario(a.scenario, SE3()).scene);  // validates the name early
+  flight::Scenario scenario = flight::make_scenario(a.scenario, probe.T_world_start());
+  const double duration = a.duration_s > 0.0 ? a.duration_s : scenario.default_duration_s;
+  if (a.duration_s < 0.0) throw InputError("fly: --duration must be positive");
+  if (options.vo_off_at_s >= duration) {
+    throw InputError("fly: --vo-off-at is after the end of the flight");
+  }
+  io::claim_output_dir(a.out, "fly", a.force);
+
+  flight::FlightSimulation simulation(std::move(scenario), options);
+  std::cerr << "kestrel fly: scenario " << a.scenario << " in scene '" << probe.name() << "', "
+            << duration << " s, seed " << a.seed << "\n  vision: "
+            << options.vision.describe() << "\n";
+  ProgressBar bar("flying (simulated s)", static_cast<std::size_t>(duration));
+  const flight::FlightResult result = simulation.run(duration, [&](const flight::FlightSample& s) {
+    bar.update(static_cast<std::size_t>(s.t_s));
+  });
+  bar.finish();
+
+  const auto logs = flight::write_flight_logs(a.out, result);
+  const auto plots = flight::write_flight_plots(a.out, result);
+  const double realtime = result.counters.wall_s > 0.0 ? result.duration_s / result.counters.wall_s : 0.0;
+  std::cout << std::fixed << std::setprecision(3) << "scenario " << result.scenario << ": "
+            << result.duration_s << " s simulated in " << result.counters.wall_s << " s ("
+            << std::setprecision(2) << realtime << "x real time), final mode "
+            << result.final_mode << "\n"
+            << "  tracking RMS " << std::setprecision(4) << result.rms_tracking_m()
+            << " m (max " << result.max_tracking_m() << " m), estimate RMS "
+            << result.rms_estimate_m() << " m, scored from t = " << result.settle_s << " s\n"
+            << "  " << result.counters.describe() << "\n";
+  for (const auto& p : logs) std::cout << "  log:  " << p.string() << "\n";
+  for (const auto& p : plots) std::cout << "  plot: " << p.string() << "\n";
+  std::cout << flight::flight_summary_line(result) << std::endl;
+}
+
+}  // namespace
+
+void add_fly_command(CLI::App& app) {
+  auto args = std::make_shared<FlyArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "fly", "Fly a closed loop in simulation: render -> active stereo -> odometry -> EKF -> "
+             "controller -> PWM -> flight controller -> dynamics");
+  cmd->add_option("--scenario", args->scenario, "hover, square or corridor (see --list)")
+      ->capture_default_str();
+  cmd->add_option("--duration", args->duration_s,
+                  "Simulated seconds (default: the scenario's: hover 60, square 32, corridor 33)");
+  cmd->add_option("--seed", args->seed, "Seed of every random part (IMU, noise, pattern)")
+      ->capture_default_str();
+  cmd->add_option("--out", args->out, "Output folder: log.csv, details.csv, top_view.png, errors.png");
+  cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
+  cmd->add_flag("--list", args->list, "List the scenarios, then exit");
+  cmd->add_option("--vo-off-at", args->vo_off_at_s,
+                  "Switch the odometry off at this time (s) to test the IMU hold");
+  cmd->add_option("--vo-off-for", args->vo_off_for_s, "... for this long (s)")
+      ->capture_default_str();
+  cmd->add_option("--latency", args->latency_s,
+                  "Camera-to-filter latency in seconds (default 0.040)");
+  cmd->add_option("--projector", args->projector,
+                  "Projector mode: ambient (default: room light + pattern), dark, off (passive)");
+  cmd->add_option("--vehicle", args->vehicle_yaml, "Vehicle parameters YAML (config/vehicle_default.yaml)");
+  cmd->add_option("--controller", args->controller_yaml,
+                  "Position-controller gains YAML (config/controller_default.yaml)");
+  cmd->add_option("--imu", args->imu_yaml, "IMU noise, EuRoC sensor.yaml format (config/imu_default.yaml)");
+  cmd->add_option("--safety", args->safety_yaml, "Safety options YAML");
+  cmd->add_option("--tracker", args->tracker_yaml, "Direct-odometry options YAML");
+  cmd->add_option("--matcher", args->matcher_yaml, "Block-matcher options YAML");
+  cmd->callback([args] { run_fly(*args); });
+}
+
+}  // namespace kestrel::cli

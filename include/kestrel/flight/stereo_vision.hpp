@@ -1,0 +1,111 @@
+// The vehicle's vision in the closed loop, every stage the real one: the active-stereo pair is
+// rendered from the true camera pose (projector on the rig), block-matched to disparity,
+// turned into depth (Z = B f / d, thesis eq. 2.9) and tracked by the direct odometry; each
+// tracked frame gives the fusion a relative camera motion with its covariance.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/odometry/direct_tracker.hpp"
+#include "kestrel/sensor/block_matcher.hpp"
+#include "kestrel/sensor/pattern.hpp"
+#include "kestrel/sensor/projector.hpp"
+#include "kestrel/sim/renderer.hpp"
+#include "kestrel/sim/scene.hpp"
+
+namespace kestrel::flight {
+
+/// A camera looking along the body's x axis (optical z = body x, x = -y, y = -z), `ahead_m`
+/// in front of the body origin.
+SE3 forward_camera_mount(double ahead_m);
+
+/// The projector of the flying rig: ProjectorOptions' defaults without shadow rays.
+sensor::ProjectorOptions rig_projector_options();
+
+/// The sensor head and its processing. Defaults: the MT9V024 pair of the thesis binned to
+/// 376 x 240 (74 deg horizontal field of view), 12 cm baseline, looking forward 10 cm ahead of
+/// the body origin, projector between the cameras.
+struct StereoVisionOptions {
+  int width = 376;
+  int height = 240;
+  double f_px = 250.0;
+  double baseline_m = 0.12;
+  /// Left camera's optical frame (x right, y down, z forward) in the body frame (x forward,
+  /// y left, z up).
+  SE3 T_body_cam = forward_camera_mount(0.10);
+  sensor::ProjectorMode projector_mode = sensor::ProjectorMode::kAmbientAndPattern;
+  /// What the odometry tracks. true: the left view without the pattern, as with an infrared
+  /// (or strobed) projector that the stereo pair sees and the tracking image does not (thesis
+  /// 5.2's future work; a Kinect-like head). false: the pattern-lit left view itself, as with
+  /// the thesis' visible projector: the pattern moves with the rig, breaking brightness
+  /// constancy and pulling the alignment towards zero motion (docs/flight.md measures it).
+  /// Ignored for kOff; kDarkRoom always tracks the lit view (there is no other light).
+  bool track_without_pattern = true;
+  sensor::ProjectorOptions projector = rig_projector_options();
+  sensor::PatternOptions pattern;
+  /// Camera noise (grey levels) of both views.
+  double intensity_sigma = 2.0;
+  sensor::BlockMatcherOptions matcher;
+  odometry::DirectTrackerOptions tracker;
+  /// The tracker's covariance is sigma^2 (J^T W J)^-1, which treats every pixel's residual
+  /// as independent; neighbouring residuals are not, so the fusion gets it times this factor.
+  double covariance_scale = 25.0;
+  /// Frames further apart than this (odometry switched off, a stall): the tracker restarts.
+  double max_frame_gap_s = 0.2;
+
+  [[nodiscard]] RectifiedStereo rig() const;
+  void validate() const;  ///< throws std::invalid_argument naming the field
+  [[nodiscard]] std::string describe() const;
+};
+
+/// What one camera frame gave.
+struct VisionFrame {
+  TimeNs t_ns = 0;
+  odometry::TrackResult track;
+  /// The relative motion for the fusion (also for the first frame after a restart: then with
+  /// no matching reference, it only starts one); nullopt when tracking failed.
+  std::optional<fusion::RelativePoseMeasurement> measurement;
+  double depth_fill = 0.0;  ///< share of pixels with a disparity
+  double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;
+};
+
+class StereoVision {
+ public:
+  /// Throws std::invalid_argument for invalid options.
+  StereoVision(const sim::Scene& scene, const StereoVisionOptions& options, std::uint64_t seed);
+  ~StereoVision();
+  StereoVision(const StereoVision&) = delete;
+  StereoVision& operator=(const StereoVision&) = delete;
+
+  /// Renders, matches and tracks the frame the cameras take at t_ns from T_world_body.
+  VisionFrame process(TimeNs t_ns, const SE3& T_world_body);
+
+  [[nodiscard]] const StereoVisionOptions& options() const { return options_; }
+  /// The last left stereo image, tracking image and depth (for figures).
+  [[nodiscard]] const cv::Mat& last_left_gray() const { return left_gray_; }
+  [[nodiscard]] const cv::Mat& last_tracking_gray() const { return tracking_gray_; }
+  [[nodiscard]] const cv::Mat& last_depth_m() const { return depth_m_; }
+
+ private:
+  StereoVisionOptions options_;
+  RectifiedStereo rig_;
+  std::shared_ptr<sensor::ProjectorLight> projector_;
+  sim::Scene lit_scene_;
+  sim::StereoRenderer renderer_;
+  std::optional<sim::Renderer> tracking_renderer_;  // the left view without the pattern
+  sim::Scene scene_;                               // unlit by the projector
+  sim::RenderedFrame tracking_frame_;
+  sensor::BlockMatcher matcher_;
+  odometry::DirectTracker tracker_;
+  sim::StereoFrame frame_;
+  cv::Mat left_gray_, right_gray_, tracking_gray_, disparity_, depth_m_;
+  std::optional<TimeNs> last_frame_ns_;
+  std::optional<TimeNs> last_tracked_ns_;
+  SE3 last_tracked_T_world_cam_;
+};
+
+}  // namespace kestrel::flight

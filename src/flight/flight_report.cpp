@@ -1,0 +1,134 @@
+// Logs, figures and the summary line of a flight.
+#include "kestrel/flight/flight_report.hpp"
+
+#include <cstdio>
+#include <fstream>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/eval/plot.hpp"
+#include "kestrel/io/trajectory_io.hpp"
+
+namespace kestrel::flight {
+namespace fs = std::filesystem;
+namespace {
+
+std::ofstream open_for_writing(const fs::path& path) {
+  std::ofstream out(path);
+  if (!out) throw InputError(path.string() + ": cannot open file for writing");
+  return out;
+}
+
+void finish(std::ofstream& out, const fs::path& path) {
+  out.flush();
+  if (!out) throw InputError(path.string() + ": write failed (disk full?)");
+}
+
+std::string fixed(double value, int decimals) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+  return buffer;
+}
+
+std::vector<double> column(const FlightResult& r, const std::function<double(const FlightSample&)>& f) {
+  std::vector<double> values;
+  values.reserve(r.samples.size());
+  for (const FlightSample& s : r.samples) values.push_back(f(s));
+  return values;
+}
+
+}  // namespace
+
+const std::vector<std::string>& flight_log_columns() {
+  static const std::vector<std::string> columns = {"t",     "x_true", "y_true", "z_true",
+                                                   "x_ref", "y_ref",  "z_ref",  "x_est",
+                                                   "y_est", "z_est",  "vo_ok"};
+  return columns;
+}
+
+std::vector<fs::path> write_flight_logs(const fs::path& dir, const FlightResult& result) {
+  const fs::path log_path = dir / "log.csv";
+  {
+    std::ofstream out = open_for_writing(log_path);
+    const auto& columns = flight_log_columns();
+    for (std::size_t i = 0; i < columns.size(); ++i) out << (i > 0 ? "," : "") << columns[i];
+    out << '\n';
+    for (const FlightSample& s : result.samples) {
+      out << fixed(s.t_s, 3);
+      for (const Eigen::Vector3d* p : {&s.p_true, &s.p_ref, &s.p_est}) {
+        for (int k = 0; k < 3; ++k) out << ',' << fixed((*p)[k], 5);
+      }
+      out << ',' << (s.vo_ok ? 1 : 0) << '\n';
+    }
+    finish(out, log_path);
+  }
+  const fs::path details_path = dir / "details.csv";
+  {
+    std::ofstream out = open_for_writing(details_path);
+    out << "t,mode,position_sigma_m,roll_cmd_rad,pitch_cmd_rad,yaw_rate_cmd_rad_s,thrust_cmd_N,"
+           "crashed\n";
+    for (const FlightSample& s : result.samples) {
+      out << fixed(s.t_s, 3) << ',' << control::to_string(s.mode) << ','
+          << fixed(s.position_sigma_m, 5) << ',' << fixed(s.command.roll_rad, 5) << ','
+          << fixed(s.command.pitch_rad, 5) << ',' << fixed(s.command.yaw_rate_rad_s, 5) << ','
+          << fixed(s.command.thrust_N, 4) << ',' << (s.crashed ? 1 : 0) << '\n';
+    }
+    finish(out, details_path);
+  }
+  return {log_path, details_path};
+}
+
+std::vector<fs::path> write_flight_plots(const fs::path& dir, const FlightResult& result) {
+  const auto x = [](int k) { return [k](const FlightSample& s) { return s.p_true[k]; }; };
+  const auto r = [](int k) { return [k](const FlightSample& s) { return s.p_ref[k]; }; };
+  const auto e = [](int k) { return [k](const FlightSample& s) { return s.p_est[k]; }; };
+  const std::vector<double> t = column(result, [](const FlightSample& s) { return s.t_s; });
+
+  eval::Plot top;
+  top.title = "kestrel fly " + result.scenario + ": top view";
+  top.x_label = "x [m]";
+  top.y_label = "y [m]";
+  top.equal_aspect = true;
+  top.width_px = 800;
+  top.height_px = 700;
+  top.add("reference", column(result, r(0)), column(result, r(1))).thickness_px = 2;
+  top.add("true", column(result, x(0)), column(result, x(1)));
+  top.add("estimated", column(result, e(0)), column(result, e(1)));
+  const fs::path top_path = dir / "top_view.png";
+  eval::write_png(top_path, eval::render_plot(top));
+
+  eval::Plot errors;
+  errors.title = "position errors";
+  errors.x_label = "time [s]";
+  errors.y_label = "error [m]";
+  errors.add("|true - reference| (tracking)", t,
+             column(result, [](const FlightSample& s) { return (s.p_true - s.p_ref).norm(); }));
+  errors.add("|estimated - true| (estimator)", t,
+             column(result, [](const FlightSample& s) { return (s.p_est - s.p_true).norm(); }));
+  eval::Plot altitude;
+  altitude.title = "altitude";
+  altitude.x_label = "time [s]";
+  altitude.y_label = "z [m]";
+  altitude.add("reference", t, column(result, r(2)));
+  altitude.add("true", t, column(result, x(2)));
+  altitude.add("estimated", t, column(result, e(2)));
+  eval::Plot status;
+  status.title = "odometry and safety (0 nominal, 1 IMU hold, 2 landing, 3 blind descent, 4 landed)";
+  status.x_label = "time [s]";
+  status.y_label = "state";
+  status.height_px = 250;
+  status.y_range = eval::AxisRange{-0.2, 4.2};
+  status.add("odometry ok", t, column(result, [](const FlightSample& s) { return s.vo_ok ? 1.0 : 0.0; }));
+  status.add("safety mode", t,
+             column(result, [](const FlightSample& s) { return static_cast<double>(s.mode); }));
+  const fs::path errors_path = dir / "errors.png";
+  eval::write_png(errors_path, eval::render_stacked({errors, altitude, status}));
+  return {top_path, errors_path};
+}
+
+std::string flight_summary_line(const FlightResult& result) {
+  return "rms_tracking_m=" + fixed(result.rms_tracking_m(), 4) +
+         " rms_estimate_m=" + fixed(result.rms_estimate_m(), 4) +
+         " crashed=" + (result.crashed ? "1" : "0");
+}
+
+}  // namespace kestrel::flight

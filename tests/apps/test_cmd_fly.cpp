@@ -1,0 +1,75 @@
+// `kestrel fly` end to end: a one-second flight writes its logs, plots and summary line; bad
+// arguments fail clearly; a folder of other files is not overwritten.
+#include <gtest/gtest.h>
+
+#include "run_cli.hpp"
+#include "test_data.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using kestrel::test::quoted;
+using kestrel::test::RunResult;
+
+class CmdFly : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(KESTREL_BINARY))
+        << KESTREL_BINARY << " not found: build the `kestrel` target first";
+    dir_ = kestrel::test::fresh_temp_dir("cmd_fly");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  RunResult run(const std::string& arguments) const {
+    return kestrel::test::run_kestrel(dir_, arguments);
+  }
+  std::string out(const std::string& name) const { return quoted((dir_ / name).string()); }
+
+  fs::path dir_;
+};
+
+TEST_F(CmdFly, ShortHoverWritesLogPlotsAndSummary) {
+  const RunResult r = run("fly --scenario hover --duration 1 --out " + out("flight"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string last = r.last_line();
+  EXPECT_EQ(last.rfind("rms_tracking_m=", 0), 0u) << last;
+  EXPECT_NE(last.find(" rms_estimate_m="), std::string::npos) << last;
+  EXPECT_NE(last.find(" crashed=0"), std::string::npos) << last;
+  for (const char* file : {"log.csv", "details.csv", "top_view.png", "errors.png"}) {
+    EXPECT_TRUE(fs::exists(dir_ / "flight" / file)) << file;
+  }
+  EXPECT_NE(r.out.find("top_view.png"), std::string::npos) << "plot paths are printed";
+}
+
+TEST_F(CmdFly, UnknownScenarioIsAClearError) {
+  const RunResult r = run("fly --scenario loop --out " + out("flight"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("unknown scenario 'loop'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "flight")) << "nothing is written for a bad argument";
+}
+
+TEST_F(CmdFly, MissingOutputAndBadOutageAreErrors) {
+  EXPECT_NE(run("fly --scenario hover").err.find("--out"), std::string::npos);
+  const RunResult r =
+      run("fly --scenario hover --duration 2 --vo-off-at 5 --out " + out("flight"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("--vo-off-at"), std::string::npos) << r.err;
+}
+
+TEST_F(CmdFly, RefusesAFolderOfOtherFiles) {
+  fs::create_directories(dir_ / "mine");
+  { std::ofstream(dir_ / "mine" / "notes.txt") << "precious\n"; }
+  const RunResult r = run("fly --scenario hover --duration 0.2 --out " + out("mine"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("refusing"), std::string::npos) << r.err;
+  EXPECT_EQ(kestrel::test::slurp(dir_ / "mine" / "notes.txt"), "precious\n");
+}
+
+TEST_F(CmdFly, ListNamesEveryScenario) {
+  const RunResult r = run("fly --list");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* name : {"hover", "square", "corridor"}) {
+    EXPECT_NE(r.out.find(name), std::string::npos) << name;
+  }
+}
+
+}  // namespace

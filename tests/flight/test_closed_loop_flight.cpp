@@ -1,0 +1,109 @@
+// Short closed-loop flights of the whole pipeline (render -> active stereo -> odometry -> EKF
+// -> controller -> PWM -> flight-controller model -> dynamics) at a reduced image size so that
+// they run in seconds: a hover, an odometry outage, and the logs `kestrel fly` writes.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "kestrel/flight/flight_report.hpp"
+#include "kestrel/flight/flight_simulation.hpp"
+#include "kestrel/sim/scenes.hpp"
+#include "test_data.hpp"
+
+namespace kestrel::flight {
+namespace {
+
+/// The default pipeline with half-size images (188 x 120, the same field of view).
+FlightOptions small_options() {
+  FlightOptions o;
+  o.vision.width = 188;
+  o.vision.height = 120;
+  o.vision.f_px = 125.0;
+  o.vision.matcher.max_disparity = 32;
+  o.vision.tracker.pyramid_levels = 4;
+  return o;
+}
+
+Scenario scenario(const std::string& name) {
+  return make_scenario(name, sim::make_scene(make_scenario(name, SE3()).scene).T_world_start());
+}
+
+TEST(ClosedLoopFlight, HoversOnTheWholePipeline) {
+  FlightSimulation simulation(scenario("hover"), small_options());
+  const FlightResult r = simulation.run(6.0);
+  EXPECT_FALSE(r.crashed);
+  EXPECT_EQ(r.samples.size(), 6u * 200u + 1u);  // 200 Hz, both ends
+  EXPECT_EQ(r.counters.frames, 6u * 30u + 1u);
+  // Every frame is tracked and nearly every measurement accepted by the filter.
+  EXPECT_EQ(r.counters.frames_tracked, r.counters.frames);
+  EXPECT_GT(r.counters.fusion.updates_accepted, r.counters.frames * 9 / 10);
+  // The issue's hover target (5 cm RMS over 60 s at full size) holds on this short flight.
+  EXPECT_LT(r.rms_tracking_m(), 0.05);
+  EXPECT_LT(r.rms_estimate_m(), 0.05);
+  for (const FlightSample& s : r.samples) {
+    EXPECT_EQ(s.mode, control::SafetyMode::kNominal) << "t=" << s.t_s;
+    if (s.mode != control::SafetyMode::kNominal) break;
+  }
+}
+
+TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
+  FlightOptions o = small_options();
+  o.vo_off_at_s = 2.0;
+  o.vo_off_for_s = 2.0;
+  FlightSimulation simulation(scenario("hover"), o);
+  const FlightResult r = simulation.run(7.0);
+  EXPECT_FALSE(r.crashed);
+  EXPECT_EQ(r.counters.frames_off, 60u);
+  bool held = false;
+  for (const FlightSample& s : r.samples) {
+    if (s.t_s >= 2.0 && s.t_s < 4.0) {
+      EXPECT_FALSE(s.vo_ok) << "t=" << s.t_s;
+    }
+    held = held || s.mode == control::SafetyMode::kImuHold;
+  }
+  EXPECT_TRUE(held) << "the supervisor never switched to the IMU hold";
+  const FlightSample& last = r.samples.back();
+  EXPECT_EQ(last.mode, control::SafetyMode::kNominal);
+  EXPECT_TRUE(last.vo_ok);
+  // Recovered: at the end the vehicle is back near the reference.
+  EXPECT_LT((last.p_true - last.p_ref).norm(), 0.10);
+}
+
+TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
+  FlightSimulation simulation(scenario("hover"), small_options());
+  const FlightResult r = simulation.run(0.5);
+  const auto dir = test::fresh_temp_dir("flight_report");
+  const auto files = write_flight_logs(dir, r);
+  ASSERT_EQ(files.size(), 2u);
+  std::ifstream log(dir / "log.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(log, line));
+  EXPECT_EQ(line, "t,x_true,y_true,z_true,x_ref,y_ref,z_ref,x_est,y_est,z_est,vo_ok");
+  std::size_t rows = 0;
+  while (std::getline(log, line)) {
+    ++rows;
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 10) << line;
+  }
+  EXPECT_EQ(rows, r.samples.size());
+  const auto plots = write_flight_plots(dir, r);
+  for (const auto& p : plots) EXPECT_GT(std::filesystem::file_size(p), 1000u) << p;
+  const std::string summary = flight_summary_line(r);
+  EXPECT_EQ(summary.rfind("rms_tracking_m=", 0), 0u) << summary;
+  EXPECT_NE(summary.find(" crashed=0"), std::string::npos) << summary;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FlightOptions, RejectsInconsistentRates) {
+  FlightOptions o;
+  o.control_rate_hz = 300.0;  // 1000 / 300 is not whole
+  EXPECT_THROW(FlightSimulation(scenario("hover"), o), std::invalid_argument);
+  o = FlightOptions();
+  o.vision_latency_s = -0.1;
+  EXPECT_THROW(FlightSimulation(scenario("hover"), o), std::invalid_argument);
+  o = FlightOptions();
+  o.vision.baseline_m = 0.0;
+  EXPECT_THROW(FlightSimulation(scenario("hover"), o), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace kestrel::flight
