@@ -106,7 +106,7 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--scenario", args->scenario, "hover, square or corridor (see --list)")
       ->capture_default_str();
   cmd->add_option("--duration", args->duration_s,
-                  "Simulated seconds (default: the scenario's: hover 60, square 32, corridor 33)");
+                  "Simulated seconds (default: the scenario's: hover 60, square 28, corridor 32)");
   cmd->add_option("--seed", args->seed, "Seed of every random part (IMU, noise, pattern)")
       ->capture_default_str();
   cmd->add_option("--out", args->out, "Output folder: log.csv, details.csv, top_view.png, errors.png");

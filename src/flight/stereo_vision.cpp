@@ -2,6 +2,7 @@
 #include "kestrel/flight/stereo_vision.hpp"
 
 #include <chrono>
+#include <future>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -100,12 +101,21 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   projector_->set_pose(T_world_left * options_.projector.T_left_projector);
 
   auto start = std::chrono::steady_clock::now();
+  // The tracking view renders on a second thread beside the stereo pair: separate renderers,
+  // scenes and noise generators, lights const during a render, so the result is the same as
+  // one after the other.
+  std::future<void> tracking;
+  if (tracking_renderer_) {
+    tracking = std::async(std::launch::async, [this, &T_world_left] {
+      tracking_renderer_->render(scene_, T_world_left, tracking_frame_);
+      cv::cvtColor(tracking_frame_.color_bgr, tracking_gray_, cv::COLOR_BGR2GRAY);
+    });
+  }
   renderer_.render(lit_scene_, T_world_left, frame_);
   cv::cvtColor(frame_.left.color_bgr, left_gray_, cv::COLOR_BGR2GRAY);
   cv::cvtColor(frame_.right.color_bgr, right_gray_, cv::COLOR_BGR2GRAY);
-  if (tracking_renderer_) {
-    tracking_renderer_->render(scene_, T_world_left, tracking_frame_);
-    cv::cvtColor(tracking_frame_.color_bgr, tracking_gray_, cv::COLOR_BGR2GRAY);
+  if (tracking.valid()) {
+    tracking.get();
   } else {
     tracking_gray_ = left_gray_;
   }
