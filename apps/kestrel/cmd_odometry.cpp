@@ -1,4 +1,5 @@
-// `kestrel odometry`: direct RGB-D odometry over a TUM RGB-D folder, TUM trajectory out,
+// `kestrel odometry`: direct RGB-D odometry over a TUM RGB-D folder, or with --stereo over an
+// EuRoC folder (rectify -> block matching -> disparity-space tracking); TUM trajectory out,
 // evaluation when the folder has ground truth, timing summary as the last stderr line.
 #include <algorithm>
 #include <chrono>
@@ -14,10 +15,14 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/io/camera_io.hpp"
+#include "kestrel/io/euroc.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
+#include "kestrel/odometry/stereo_odometry.hpp"
+#include "kestrel/sensor/block_matcher.hpp"
+#include "kestrel/sensor/rectification.hpp"
 #include "progress.hpp"
 
 namespace kestrel::cli {
@@ -32,7 +37,166 @@ struct OdometryArgs {
   std::string camera;
   bool force = false;
   bool quiet = false;
+  // --stereo: an EuRoC folder, block-matched and tracked in disparity space.
+  bool stereo = false;
+  std::filesystem::path matcher_options;
+  int block = 0;          // 0: from the matcher options (default 9)
+  int max_disparity = 0;  // 0: ditto (default 64)
+  int min_disparity = -1;
 };
+
+void print_options(const odometry::DirectTrackerOptions& options, const OdometryArgs& args) {
+  std::cerr << "tracker options" << (args.config.empty() ? " (defaults)" : " from " + args.config.string())
+            << ":\n";
+  std::istringstream lines(options.to_yaml());
+  for (std::string line; std::getline(lines, line);) std::cerr << "  " << line << "\n";
+}
+
+// Mean and median of the per-frame times, as the last stderr line (its format is stable).
+void print_summary(const std::vector<double>& ms, std::size_t frames, std::size_t failures) {
+  double mean = 0.0, median = 0.0;
+  if (!ms.empty()) {
+    for (double v : ms) mean += v;
+    mean /= static_cast<double>(ms.size());
+    std::vector<double> sorted = ms;
+    std::sort(sorted.begin(), sorted.end());
+    const std::size_t n = sorted.size();
+    median = n % 2 == 1 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+  }
+  if (frames == 1) {
+    std::cerr << "kestrel odometry: the sequence has one frame: nothing to track\n";
+  }
+  std::ostringstream summary;
+  summary << std::fixed << std::setprecision(3) << "SUMMARY frames=" << frames
+          << " failures=" << failures << " mean_ms=" << mean << " median_ms=" << median;
+  std::cout.flush();
+  std::cerr << summary.str() << std::endl;  // the LAST line on stderr: keep its format stable
+}
+
+std::string failure_line(std::size_t i, const odometry::TrackResult& r) {
+  return "frame " + std::to_string(i) + " (t=" + io::format_seconds(r.t_ns) +
+         "): " + std::string(odometry::to_string(r.failure)) + ": " + r.failure_detail;
+}
+
+void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory) {
+  try {
+    const eval::Evaluation evaluation = eval::evaluate(gt, trajectory, eval::EvaluationOptions{});
+    std::cout << eval::format_report(evaluation);
+    std::cout << eval::format_summary_line(evaluation) << std::endl;
+  } catch (const InputError& e) {
+    std::cerr << "kestrel odometry: evaluation skipped: " << e.what() << "\n";
+  }
+}
+
+// The block matcher's options: the YAML file (if any), then the flags given.
+sensor::BlockMatcherOptions matcher_options(const OdometryArgs& args) {
+  sensor::BlockMatcherOptions o = args.matcher_options.empty()
+                                      ? sensor::BlockMatcherOptions{}
+                                      : sensor::BlockMatcherOptions::load_yaml(args.matcher_options);
+  if (args.block != 0) o.block_size = args.block;
+  if (args.max_disparity != 0) o.max_disparity = args.max_disparity;
+  if (args.min_disparity >= 0) o.min_disparity = args.min_disparity;
+  try {
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("stereo matcher options (--block, --max-disparity, "
+                                 "--min-disparity, --matcher-options): ") + e.what());
+  }
+  return o;
+}
+
+/// EuRoC ground truth as poses of the rectified left camera, T_world_rect = T_world_cam0 *
+/// T_cam0_rect with T_cam0_rect = (R_rect_left^T, 0). A body ground truth (state CSVs) gives
+/// T_world_cam0 = T_world_body * T_BS (cam0 sensor.yaml). groundtruth_cam0/ (ORB-SLAM3's, V1_01)
+/// is cam0 already, but its quaternion is R_cam_world (the evidence: docs/fusion.md, "V1_01
+/// ground truth", and fusion/experiments.cpp): it is inverted here.
+Trajectory rectified_camera_groundtruth(const io::EurocSequence& sequence,
+                                        const Eigen::Matrix3d& R_rect_left) {
+  Trajectory gt;
+  const auto csv = sequence.groundtruth_csv();
+  if (!csv) return gt;
+  const bool camera_gt = csv->parent_path().filename() == "groundtruth_cam0";
+  const io::CameraFile cam0 = sequence.cam0_calibration();
+  if (!camera_gt && !cam0.T_body_sensor) {
+    throw InputError(sequence.mav0() / "cam0" / "sensor.yaml", "T_BS",
+                     "missing (needed to compare with the body ground truth " + csv->string() + ")");
+  }
+  const SE3 T_cam0_rect(SO3::from_matrix(R_rect_left.transpose()), Eigen::Vector3d::Zero());
+  for (const StampedPose& p : io::read_euroc_trajectory(*csv)) {
+    const SE3 T_world_cam0 =
+        camera_gt ? SE3(p.T_world_body.so3().inverse(), p.T_world_body.translation())
+                  : p.T_world_body * *cam0.T_body_sensor;
+    gt.push_back({p.t_ns, T_world_cam0 * T_cam0_rect});
+  }
+  return gt;
+}
+
+void run_stereo_odometry(const OdometryArgs& args) {
+  if (!args.camera.empty()) {
+    throw InputError("--camera: not used with --stereo (the rig comes from the EuRoC folder's "
+                     "cam0/cam1 sensor.yaml)");
+  }
+  const odometry::DirectTrackerOptions options =
+      args.config.empty() ? odometry::DirectTrackerOptions{}
+                          : odometry::DirectTrackerOptions::load(args.config);
+  const sensor::BlockMatcherOptions matching = matcher_options(args);
+  io::check_can_write_file(args.out, kCommand, args.force);
+  const io::EurocSequence sequence(args.dataset);
+  const sensor::StereoCalibration calibration = sensor::StereoCalibration::from_euroc(sequence);
+  odometry::StereoOdometry stereo(calibration, matching, options);
+  const RectifiedStereo& rig = stereo.rig();
+  std::cerr << "kestrel odometry --stereo: dataset=" << args.dataset.string()
+            << " stereo pairs=" << sequence.stereo_size() << "\n"
+            << "calibration: " << calibration.describe() << "\n"
+            << "rectified: f " << rig.f << " px, c (" << rig.cu << ", " << rig.cv << "), baseline "
+            << rig.baseline_m << " m, " << rig.width << "x" << rig.height << "\n"
+            << "matcher: " << matching.describe() << "\n";
+  print_options(options, args);
+  if (sequence.stereo_size() == 0) {
+    throw InputError(args.dataset.string() + ": no stereo pairs (cam0 and cam1 frames with equal "
+                                             "time stamps in mav0/cam0/data.csv, mav0/cam1/data.csv)");
+  }
+
+  Trajectory trajectory;
+  trajectory.reserve(sequence.stereo_size());
+  std::vector<double> ms, match_ms;
+  std::size_t failures = 0, keyframes = 0;
+  double fill_sum = 0.0;
+  std::vector<std::string> failure_lines;
+  ProgressBar progress("odometry --stereo", sequence.stereo_size());
+  for (std::size_t i = 0; i < sequence.stereo_size(); ++i) {
+    const io::StereoImages images = sequence.load_stereo(i);  // decoding: not timed
+    const auto t0 = std::chrono::steady_clock::now();
+    const odometry::StereoTrackResult r = stereo.track(images.t_ns, images.left, images.right);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (r.track.failure == odometry::TrackFailure::kInvalidInput) {
+      throw InputError(args.dataset.string() + ": stereo pair " + std::to_string(i) + " (t_ns " +
+                       std::to_string(images.t_ns) + ", mav0/cam0 and mav0/cam1): " +
+                       r.track.failure_detail);
+    }
+    if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    fill_sum += r.match.fill_rate();
+    if (!r.track.ok()) {
+      ++failures;
+      if (failure_lines.size() < 20) failure_lines.push_back(failure_line(i, r.track));
+    }
+    keyframes += r.track.new_keyframe ? 1 : 0;
+    trajectory.push_back({images.t_ns, r.track.T_world_cam});
+    progress.update(i + 1);
+  }
+  progress.finish();
+  io::write_tum_trajectory(args.out, trajectory, kCommand, args.force);
+  std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses of the "
+            << "rectified left camera, " << keyframes << " keyframes, " << failures
+            << " failures, mean disparity fill "
+            << 100.0 * fill_sum / static_cast<double>(sequence.stereo_size()) << " %)\n";
+  for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
+  if (const Trajectory gt = rectified_camera_groundtruth(sequence, stereo.R_rect_left());
+      !gt.empty()) {
+    evaluate_and_print(gt, trajectory);
+  }
+  print_summary(ms, sequence.stereo_size(), failures);
+}
 
 std::string default_camera_for(const std::filesystem::path& folder) {
   const std::string name = std::filesystem::absolute(folder).lexically_normal().string();
@@ -43,6 +207,15 @@ std::string default_camera_for(const std::filesystem::path& folder) {
 }
 
 void run_odometry(const OdometryArgs& args) {
+  if (args.stereo) {
+    run_stereo_odometry(args);
+    return;
+  }
+  if (!args.matcher_options.empty() || args.block != 0 || args.max_disparity != 0 ||
+      args.min_disparity >= 0) {
+    throw InputError("--block, --max-disparity, --min-disparity and --matcher-options need "
+                     "--stereo");
+  }
   std::string camera_name = args.camera;
   if (camera_name.empty()) camera_name = default_camera_for(args.dataset);
   if (camera_name.empty()) {
@@ -60,13 +233,8 @@ void run_odometry(const OdometryArgs& args) {
 
   std::cerr << "kestrel odometry: dataset=" << args.dataset.string() << " frames=" << sequence.size()
             << " (unmatched rgb: " << sequence.unmatched_rgb() << ")\n"
-            << "camera " << camera_name << ": " << camera.describe() << "\n"
-            << "tracker options" << (args.config.empty() ? " (defaults)" : " from " + args.config.string())
-            << ":\n";
-  {
-    std::istringstream lines(options.to_yaml());
-    for (std::string line; std::getline(lines, line);) std::cerr << "  " << line << "\n";
-  }
+            << "camera " << camera_name << ": " << camera.describe() << "\n";
+  print_options(options, args);
   if (sequence.size() == 0) throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
 
   odometry::DirectTracker tracker(camera, options);
@@ -86,11 +254,7 @@ void run_odometry(const OdometryArgs& args) {
     if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     if (!r.ok()) {
       ++failures;
-      if (failure_lines.size() < 20) {
-        failure_lines.push_back("frame " + std::to_string(i) + " (t=" + io::format_seconds(r.t_ns) +
-                                "): " + std::string(odometry::to_string(r.failure)) + ": " +
-                                r.failure_detail);
-      }
+      if (failure_lines.size() < 20) failure_lines.push_back(failure_line(i, r));
     }
     keyframes += r.new_keyframe ? 1 : 0;
     trajectory.push_back({images.t_ns, r.T_world_cam});
@@ -102,33 +266,8 @@ void run_odometry(const OdometryArgs& args) {
             << keyframes << " keyframes, " << failures << " failures)\n";
   for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
 
-  if (const auto gt = sequence.groundtruth()) {
-    try {
-      const eval::Evaluation evaluation = eval::evaluate(*gt, trajectory, eval::EvaluationOptions{});
-      std::cout << eval::format_report(evaluation);
-      std::cout << eval::format_summary_line(evaluation) << std::endl;
-    } catch (const InputError& e) {
-      std::cerr << "kestrel odometry: evaluation skipped: " << e.what() << "\n";
-    }
-  }
-
-  double mean = 0.0, median = 0.0;
-  if (!ms.empty()) {
-    for (double v : ms) mean += v;
-    mean /= static_cast<double>(ms.size());
-    std::vector<double> sorted = ms;
-    std::sort(sorted.begin(), sorted.end());
-    const std::size_t n = sorted.size();
-    median = n % 2 == 1 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
-  }
-  if (sequence.size() == 1) {
-    std::cerr << "kestrel odometry: the sequence has one frame: nothing to track\n";
-  }
-  std::ostringstream summary;
-  summary << std::fixed << std::setprecision(3) << "SUMMARY frames=" << sequence.size()
-          << " failures=" << failures << " mean_ms=" << mean << " median_ms=" << median;
-  std::cout.flush();
-  std::cerr << summary.str() << std::endl;  // the LAST line on stderr: keep its format stable
+  if (const auto gt = sequence.groundtruth()) evaluate_and_print(*gt, trajectory);
+  print_summary(ms, sequence.size(), failures);
 }
 
 }  // namespace
@@ -137,9 +276,12 @@ void add_odometry_command(CLI::App& app) {
   auto args = std::make_shared<OdometryArgs>();
   CLI::App* cmd = app.add_subcommand(
       "odometry",
-      "Direct dense RGB-D odometry over a TUM RGB-D folder; writes camera-to-world poses in TUM "
-      "format (first frame at the identity) and evaluates them against groundtruth.txt if present");
-  cmd->add_option("dataset", args->dataset, "TUM RGB-D folder (rgb.txt, depth.txt, rgb/, depth/)")
+      "Direct dense RGB-D odometry over a TUM RGB-D folder (or, with --stereo, stereo odometry in "
+      "disparity space over an EuRoC folder); writes camera-to-world poses in TUM format (first "
+      "frame at the identity) and evaluates them against the folder's ground truth if present");
+  cmd->add_option("dataset", args->dataset,
+                  "TUM RGB-D folder (rgb.txt, depth.txt, rgb/, depth/); with --stereo an EuRoC "
+                  "folder (mav0/cam0, mav0/cam1 with data.csv and sensor.yaml)")
       ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--out", args->out, "output trajectory (TUM format)")->required();
@@ -147,6 +289,15 @@ void add_odometry_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--camera", args->camera,
                   "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN)");
+  cmd->add_flag("--stereo", args->stereo,
+                "EuRoC stereo input: rectify, block-match, track the left view in disparity space");
+  cmd->add_option("--block", args->block, "--stereo: matching window side (odd; default 9)");
+  cmd->add_option("--max-disparity", args->max_disparity,
+                  "--stereo: disparities searched: min <= d < max (default 64)");
+  cmd->add_option("--min-disparity", args->min_disparity, "--stereo: smallest disparity (default 0)");
+  cmd->add_option("--matcher-options", args->matcher_options,
+                  "--stereo: block matcher options YAML (the flags above override it)")
+      ->check(CLI::ExistingFile);
   cmd->add_flag("--force", args->force, "overwrite an output file written by something else");
   cmd->callback([args] { run_odometry(*args); });
 }

@@ -1,6 +1,8 @@
 // `kestrel stereo-experiment` (thesis fig. 2.7): the "wall" scene rendered passive (ambient
 // light, low texture) and active (the projector's pattern), matched by the block matcher and
 // scored against the rendered truth; writes the views, both disparity maps (PNG + PFM).
+// With --odometry: the corridor sequence rendered passive and active, tracked in disparity
+// space and scored against the rendered trajectory (odometry/stereo_odometry_experiment.hpp).
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -11,6 +13,8 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/pfm.hpp"
+#include "kestrel/io/trajectory_io.hpp"
+#include "kestrel/odometry/stereo_odometry_experiment.hpp"
 #include "kestrel/sensor/projector.hpp"
 
 namespace kestrel::cli {
@@ -24,7 +28,51 @@ struct ExperimentArgs {
   sensor::StereoExperimentOptions options;
   std::string mode = "dark";
   bool force = false;
+  // --odometry: the passive-vs-active stereo odometry experiment.
+  bool odometry = false;
+  odometry::StereoOdometryExperimentOptions odo;
+  std::string odo_mode = "ambient";
+  bool write_sequences = false;
 };
+
+void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
+  auto& o = args.odo;
+  // The flags shared with the single-frame experiment.
+  if (cmd.count("--seed") > 0) o.seed = args.options.seed;
+  if (cmd.count("--block") > 0) o.matcher.block_size = args.options.matcher.block_size;
+  if (cmd.count("--max-disparity") > 0) o.matcher.max_disparity = args.options.matcher.max_disparity;
+  if (cmd.count("--lines") > 0) o.pattern.lines = args.options.pattern.lines;
+  if (cmd.count("--noise") > 0) o.intensity_sigma = args.options.intensity_sigma;
+  if (cmd.count("--mode") > 0) args.odo_mode = args.mode;
+  o.active_mode = sensor::parse_projector_mode(args.odo_mode);
+  try {
+    o.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  io::claim_output_dir(args.out, kCommand, args.force);
+  if (args.write_sequences) {
+    o.write_sequences_to = args.out;
+    o.force = true;  // inside the folder this command has just claimed
+  }
+  std::cerr << "kestrel stereo-experiment --odometry: " << o.describe() << "\n";
+  const odometry::StereoOdometryExperimentResult r = odometry::run_stereo_odometry_experiment(o);
+  io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kCommand, true);
+  for (const auto& run : r.runs) {
+    io::write_tum_trajectory(args.out / (run.name + ".txt"), run.estimate, kCommand, true);
+  }
+  std::cout << "wrote " << args.out.string() << "/{groundtruth";
+  for (const auto& run : r.runs) std::cout << "," << run.name;
+  std::cout << "}.txt" << (args.write_sequences ? " and the sequences passive/, active/" : "")
+            << "\n"
+            << odometry::format_stereo_odometry_result(r);
+  for (const auto& run : r.runs) {
+    std::cout << run.name << "_failures=" << run.failures << " " << run.name
+              << "_final_error_m=" << run.final_error_m << " " << run.name << "_ate_m="
+              << (run.evaluated ? run.ate.stats_m.rmse : -1.0) << " ";
+  }
+  std::cout << "\n";
+}
 
 void write_image(const fs::path& path, const cv::Mat& image) {
   if (!cv::imwrite(path.string(), image)) throw InputError(path.string() + ": cannot write");
@@ -47,7 +95,11 @@ void print_run(const sensor::StereoExperimentRun& run) {
             << run.stats.describe() << "\n";
 }
 
-void run_experiment(ExperimentArgs& args) {
+void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
+  if (args.odometry) {
+    run_odometry_experiment(args, cmd);
+    return;
+  }
   args.options.active_mode = sensor::parse_projector_mode(args.mode);
   if (args.options.active_mode == sensor::ProjectorMode::kOff) {
     throw InputError("--mode: the active run needs the projector: dark or ambient");
@@ -99,7 +151,24 @@ void add_stereo_experiment_command(CLI::App& app) {
   cmd->add_option("--noise", o.intensity_sigma, "camera intensity noise sigma [grey levels]")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "write into a folder not claimed by this command");
-  cmd->callback([args] { run_experiment(*args); });
+  // The stereo odometry experiment (issue 4): defaults in stereo_odometry_experiment.hpp.
+  auto& q = args->odo;
+  cmd->add_flag("--odometry", args->odometry,
+                "stereo odometry instead: the corridor sequence rendered passive and active, "
+                "tracked in disparity space (default mode: ambient)");
+  cmd->add_option("--scene", q.scene, "--odometry: scene")->capture_default_str();
+  cmd->add_option("--trajectory", q.trajectory, "--odometry: trajectory")->capture_default_str();
+  cmd->add_option("--frames", q.frames, "--odometry: frames")->capture_default_str();
+  cmd->add_option("--rate", q.rate_hz, "--odometry: frame rate [Hz]")->capture_default_str();
+  cmd->add_option("--width", q.width, "--odometry: image width")->capture_default_str();
+  cmd->add_option("--height", q.height, "--odometry: image height")->capture_default_str();
+  cmd->add_option("--focal", q.f_px, "--odometry: focal length [px]")->capture_default_str();
+  cmd->add_option("--pyramid-levels", q.tracker.pyramid_levels, "--odometry: tracker pyramid levels")
+      ->capture_default_str();
+  cmd->add_flag("--write-sequences", args->write_sequences,
+                "--odometry: also write the passive/ and active/ EuRoC folders "
+                "(for `kestrel odometry --stereo`)");
+  cmd->callback([args, cmd] { run_experiment(*args, *cmd); });
 }
 
 }  // namespace kestrel::cli

@@ -13,6 +13,7 @@
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/interpolation.hpp"
+#include "kestrel/odometry/disparity_space.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
 #include "kestrel/odometry/warp_jacobian.hpp"
 
@@ -62,6 +63,13 @@ struct DirectTracker::Impl {
   TimeNs ref_t_ns = 0;
   SE3 T_world_ref;
 
+  // Disparity input (thesis 2.4, 3.10): the full-resolution map of the current and previous
+  // frame, and per level the disparity read from it (disparity_at_level; full-res pixels).
+  bool disparity_input = false;
+  RectifiedStereo rig;
+  cv::Mat disparity, prev_disparity;
+  std::vector<cv::Mat> disparity_levels;
+
   // Reference construction scratch.
   image::DepthPyramid depth_pyramid;
   cv::Mat gx, gy;
@@ -102,6 +110,34 @@ DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOpt
   impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
 }
 
+DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options)
+    : options_(options), disparity_input_(true) {
+  try {
+    rig.validate();
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("stereo rig: ") + e.what());
+  }
+  options_.validate();
+  if (options_.use_depth_residual) {
+    throw InputError("tracker option use_depth_residual: needs depth maps; not available with "
+                     "disparity input (stereo)");
+  }
+  if (options_.compensate_depth_time_offset) {
+    throw InputError("tracker option compensate_depth_time_offset: needs depth maps; not "
+                     "available with disparity input (stereo)");
+  }
+  camera_ = rig.left();
+  impl_ = std::make_unique<Impl>(camera_);
+  impl_->disparity_input = true;
+  impl_->rig = rig;
+  impl_->disparity_levels.resize(static_cast<std::size_t>(options_.pyramid_levels));
+  double s = 1.0;
+  for (int l = 0; l < options_.pyramid_levels; ++l, s *= 0.5) {
+    impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
+  }
+  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
+}
+
 DirectTracker::~DirectTracker() = default;
 
 void DirectTracker::reset() {
@@ -133,6 +169,25 @@ std::string check_frame(const RgbdFrame& f, const PinholeCamera& cam) {
   return {};
 }
 
+// The same for a disparity frame of a rectified rig.
+std::string check_frame(const DisparityFrame& f, const PinholeCamera& cam) {
+  if (f.image.empty()) return "empty image";
+  if (f.disparity_px.empty()) return "empty disparity map";
+  const int t = f.image.type();
+  if (t != CV_8UC3 && t != CV_8UC1 && t != CV_32FC1) {
+    return "image type must be CV_8UC3, CV_8UC1 or CV_32FC1";
+  }
+  if (f.disparity_px.type() != CV_32FC1) return "disparity type must be CV_32FC1 (pixels)";
+  if (f.image.cols != cam.width() || f.image.rows != cam.height() ||
+      f.disparity_px.size() != f.image.size()) {
+    return "frame size " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
+           " / disparity " + std::to_string(f.disparity_px.cols) + "x" +
+           std::to_string(f.disparity_px.rows) + " does not match the rig's " +
+           std::to_string(cam.width()) + "x" + std::to_string(cam.height());
+  }
+  return {};
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -140,6 +195,7 @@ std::string check_frame(const RgbdFrame& f, const PinholeCamera& cam) {
 namespace {
 
 void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o);
+void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const DirectTrackerOptions& o);
 
 }  // namespace
 
@@ -148,7 +204,14 @@ struct TrackerAccess {
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                               const std::vector<PinholeCamera>& cams) {
     // With the geometric residual, prepare_frame() already built this frame's depth pyramid.
-    if (!o.use_depth_residual) {
+    // Disparity input: each level reads the full-resolution disparity (thesis 3.10).
+    const bool disp = m.disparity_input;
+    if (disp) {
+      for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
+        disparity_at_level(m.disparity, l, static_cast<float>(o.depth_pyramid_max_relative_spread),
+                           m.disparity_levels[static_cast<std::size_t>(l)]);
+      }
+    } else if (!o.use_depth_residual) {
       m.depth_pyramid.build(m.depth, o.pyramid_levels,
                             static_cast<float>(o.depth_pyramid_max_relative_spread));
     }
@@ -156,8 +219,12 @@ struct TrackerAccess {
     for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
       ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
       const cv::Mat& img = m.pyramid.level(l);
-      const cv::Mat& dep = m.depth_pyramid.level(l);
+      // Depth (m) or, with disparity input, disparity (full-resolution pixels).
+      const cv::Mat& dep = disp ? m.disparity_levels[static_cast<std::size_t>(l)]
+                                : m.depth_pyramid.level(l);
       const PinholeCamera& cam = cams[static_cast<std::size_t>(l)];
+      const DisparitySpaceCamera dcam =
+          disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{};
       L.fx = static_cast<float>(cam.fx());
       L.fy = static_cast<float>(cam.fy());
       L.cx = static_cast<float>(cam.cx());
@@ -166,8 +233,11 @@ struct TrackerAccess {
       L.height = img.rows;
       image::central_gradients(img, m.gx, m.gy);
 
-      const auto zmin = static_cast<float>(o.min_depth_m);
-      const auto zmax = static_cast<float>(o.max_depth_m);
+      // The depth range; in disparity space d in [f B / max_depth, f B / min_depth], the same
+      // numbers on every level (d stays in full-resolution pixels).
+      const double fb = m.rig.f * m.rig.baseline_m;
+      const auto zmin = static_cast<float>(disp ? fb / o.max_depth_m : o.min_depth_m);
+      const auto zmax = static_cast<float>(disp ? fb / o.min_depth_m : o.max_depth_m);
       const auto g2min = static_cast<float>(o.min_gradient * o.min_gradient);
       m.candidates.clear();
       for (int y = 1; y < img.rows - 1; ++y) {
@@ -216,7 +286,21 @@ struct TrackerAccess {
         const int u = idx % img.cols;
         const int v = idx / img.cols;
         double z = dep_data[idx];
-        Eigen::Vector3d P((u - cam.cx()) / cam.fx() * z, (v - cam.cy()) / cam.fy() * z, z);
+        Eigen::Vector3d P;
+        Vector8d J;
+        if (disp) {
+          // P = Gamma_l^-1 (x, y, d) and the Jacobian in disparity space (thesis 3.7, 3.36).
+          const double d = z;
+          P = dcam.point(u, v, d);
+          z = P.z();
+          J.head<6>() =
+              disparity_photometric_pose_jacobian(dcam, u, v, d, gx_data[idx], gy_data[idx])
+                  .transpose();
+          J(6) = img_data[idx];
+          J(7) = 1.0;
+        } else {
+          P = Eigen::Vector3d((u - cam.cx()) / cam.fx() * z, (v - cam.cy()) / cam.fy() * z, z);
+        }
         // Depth taken at another time: read it where the pixel's ray was then (the rotation's
         // infinite homography), and move that point to the image's time.
         int ud = u, vd = v;
@@ -240,8 +324,10 @@ struct TrackerAccess {
             }
           }
         }
-        const Vector8d J = photometric_jacobian(P, gx_data[idx], gy_data[idx], cam.fx(),
-                                                cam.fy(), img_data[idx]);
+        if (!disp) {
+          J = photometric_jacobian(P, gx_data[idx], gy_data[idx], cam.fx(), cam.fy(),
+                                   img_data[idx]);
+        }
         const auto k = static_cast<std::size_t>(i);
         L.x[k] = static_cast<float>(P.x());
         L.y[k] = static_cast<float>(P.y());
@@ -425,6 +511,15 @@ struct TrackerAccess {
 };
 
 namespace {
+
+void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const DirectTrackerOptions& o) {
+  std::swap(m.pyramid, m.prev_pyramid);
+  std::swap(m.disparity, m.prev_disparity);
+  // Rectified views: no undistortion.
+  image::to_intensity(f.image, m.intensity);
+  f.disparity_px.copyTo(m.disparity);
+  m.pyramid.build(m.intensity, o.pyramid_levels, o.pyramid_filter);
+}
 
 void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o) {
   std::swap(m.pyramid, m.prev_pyramid);
@@ -796,20 +891,52 @@ struct AlignRunner {
 
 // ---------------------------------------------------------------------------------------
 
-TrackResult DirectTracker::track(const RgbdFrame& frame) {
-  Impl& m = *impl_;
+namespace {
+
+// The frame's kind must match the tracker's input; empty when it does.
+std::string check_input_kind(bool disparity_input, bool disparity_frame) {
+  if (disparity_input == disparity_frame) return {};
+  return disparity_input ? "this tracker was built from a stereo rig: it takes DisparityFrame"
+                         : "this tracker was built from a camera: it takes RgbdFrame";
+}
+
+template <typename Frame>
+TrackResult invalid_input(const Frame& frame, std::string detail, const SE3& T_world_cam) {
   TrackResult result;
   result.t_ns = frame.t_ns;
-  if (const std::string bad = check_frame(frame, camera_); !bad.empty()) {
-    result.failure = TrackFailure::kInvalidInput;
-    result.failure_detail = bad;
-    result.T_world_cam = m.has_prev ? m.T_world_prev : SE3();
-    return result;
-  }
+  result.failure = TrackFailure::kInvalidInput;
+  result.failure_detail = std::move(detail);
+  result.T_world_cam = T_world_cam;
+  return result;
+}
+
+}  // namespace
+
+TrackResult DirectTracker::track(const RgbdFrame& frame) {
+  Impl& m = *impl_;
+  std::string bad = check_input_kind(disparity_input_, false);
+  if (bad.empty()) bad = check_frame(frame, camera_);
+  if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
   prepare_frame(m, frame, options_);
+  return track_prepared(frame.t_ns, frame.depth_t_ns);
+}
+
+TrackResult DirectTracker::track(const DisparityFrame& frame) {
+  Impl& m = *impl_;
+  std::string bad = check_input_kind(disparity_input_, true);
+  if (bad.empty()) bad = check_frame(frame, camera_);
+  if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
+  prepare_frame(m, frame, options_);
+  return track_prepared(frame.t_ns, 0);
+}
+
+TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
+  Impl& m = *impl_;
+  TrackResult result;
+  result.t_ns = t_ns;
   // The depth map's time offset, moved by the motion per frame `velocity` over `frame_dt`.
   auto set_depth_time_shift = [&](bool known, const SE3& velocity, TimeNs frame_dt) {
-    const TimeNs offset = frame.depth_t_ns != 0 ? frame.depth_t_ns - frame.t_ns : 0;
+    const TimeNs offset = depth_t_ns != 0 ? depth_t_ns - t_ns : 0;
     m.depth_time_shift = options_.compensate_depth_time_offset && known && frame_dt > 0 &&
                          offset != 0 && std::llabs(offset) < 100'000'000LL;
     m.T_rgb_depth = m.depth_time_shift
@@ -821,14 +948,14 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
   if (!m.has_ref || !m.has_prev) {
     // The first frame defines the world.
     TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-    m.ref_t_ns = frame.t_ns;
+    m.ref_t_ns = t_ns;
     m.T_world_ref = SE3();
     m.T_world_prev = SE3();
-    m.t_prev = frame.t_ns;
+    m.t_prev = t_ns;
     m.has_prev = true;
     m.has_velocity = false;
     result.converged = true;
-    result.ref_t_ns = frame.t_ns;
+    result.ref_t_ns = t_ns;
     result.new_keyframe = true;
     result.inlier_ratio = 1.0;
     result.overlap = 1.0;
@@ -845,7 +972,7 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
 
   // Constant-velocity prediction, scaled to this frame's time step.
   SE3 T_world_pred = m.T_world_prev;
-  const TimeNs dt = frame.t_ns - m.t_prev;
+  const TimeNs dt = t_ns - m.t_prev;
   if (options_.constant_velocity_prior && m.has_velocity && m.dt_prev > 0 && dt > 0) {
     const double scale = std::clamp(static_cast<double>(dt) / static_cast<double>(m.dt_prev), 0.0, 3.0);
     T_world_pred = m.T_world_prev * SE3::exp(scale * m.velocity.log());
@@ -863,6 +990,7 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
       std::swap(m.pyramid, m.prev_pyramid);
       std::swap(m.depth, m.prev_depth);
       std::swap(m.depth_pyramid, m.prev_depth_pyramid);
+      std::swap(m.disparity, m.prev_disparity);
     };
     const bool shift = m.depth_time_shift;
     swap_previous();
@@ -882,7 +1010,7 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
   }
   result = a.result;
   result.retried_previous = retried;
-  result.t_ns = frame.t_ns;
+  result.t_ns = t_ns;
   // The keyframe's alignment stood, but its reference data were replaced by the previous
   // frame's for the retry: this frame then becomes the keyframe.
   const bool keyframe_lost = !retried && m.ref_t_ns != keyframe_t_ns;
@@ -907,7 +1035,7 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
       set_depth_time_shift(true, m.velocity, dt);  // with this frame's estimated motion
       TrackerAccess::build_reference(m, options_, impl_->level_cameras);
       m.T_world_ref = result.T_world_cam;
-      m.ref_t_ns = frame.t_ns;
+      m.ref_t_ns = t_ns;
       result.new_keyframe = true;
     }
   } else {
@@ -916,12 +1044,12 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
     result.T_ref_cur = m.T_world_ref.inverse() * T_world_pred;
     TrackerAccess::build_reference(m, options_, impl_->level_cameras);
     m.T_world_ref = T_world_pred;
-    m.ref_t_ns = frame.t_ns;
+    m.ref_t_ns = t_ns;
     m.has_velocity = false;
     result.new_keyframe = true;
   }
   m.dt_prev = dt;
-  m.t_prev = frame.t_ns;
+  m.t_prev = t_ns;
   m.T_world_prev = result.T_world_cam;
   return result;
 }
@@ -930,22 +1058,39 @@ TrackResult DirectTracker::align_pair(const RgbdFrame& reference, const RgbdFram
                                       const SE3& T_ref_cur_guess) {
   Impl& m = *impl_;
   reset();
-  TrackResult result;
-  result.t_ns = current.t_ns;
   for (const RgbdFrame* f : {&reference, &current}) {
-    if (const std::string bad = check_frame(*f, camera_); !bad.empty()) {
-      result.failure = TrackFailure::kInvalidInput;
-      result.failure_detail = bad;
-      return result;
-    }
+    std::string bad = check_input_kind(disparity_input_, false);
+    if (bad.empty()) bad = check_frame(*f, camera_);
+    if (!bad.empty()) return invalid_input(current, bad, SE3());
   }
   prepare_frame(m, reference, options_);
   TrackerAccess::build_reference(m, options_, impl_->level_cameras);
   prepare_frame(m, current, options_);
+  return align_prepared_pair(T_ref_cur_guess, reference.t_ns, current.t_ns);
+}
+
+TrackResult DirectTracker::align_pair(const DisparityFrame& reference,
+                                      const DisparityFrame& current, const SE3& T_ref_cur_guess) {
+  Impl& m = *impl_;
+  reset();
+  for (const DisparityFrame* f : {&reference, &current}) {
+    std::string bad = check_input_kind(disparity_input_, true);
+    if (bad.empty()) bad = check_frame(*f, camera_);
+    if (!bad.empty()) return invalid_input(current, bad, SE3());
+  }
+  prepare_frame(m, reference, options_);
+  TrackerAccess::build_reference(m, options_, impl_->level_cameras);
+  prepare_frame(m, current, options_);
+  return align_prepared_pair(T_ref_cur_guess, reference.t_ns, current.t_ns);
+}
+
+TrackResult DirectTracker::align_prepared_pair(const SE3& T_ref_cur_guess, TimeNs ref_t_ns,
+                                               TimeNs t_ns) {
+  Impl& m = *impl_;
   AlignOutcome a = AlignRunner::align(m, options_, T_ref_cur_guess.inverse());
-  result = a.result;
-  result.t_ns = current.t_ns;
-  result.ref_t_ns = reference.t_ns;
+  TrackResult result = a.result;
+  result.t_ns = t_ns;
+  result.ref_t_ns = ref_t_ns;
   result.T_ref_cur = a.T_cur_ref.inverse();
   result.T_world_cam = result.T_ref_cur;
   reset();

@@ -1,6 +1,7 @@
 // DirectTracker: dense direct RGB-D odometry (thesis 3.5-3.10): inverse-compositional
 // Lucas-Kanade over an SE(3) twist with global gain/bias, Tukey weights, coarse to fine,
-// aligning each frame to a keyframe (or to the previous frame).
+// aligning each frame to a keyframe (or to the previous frame). Fed by depth (RgbdFrame) or,
+// built from a rectified rig, by disparity in disparity space (DisparityFrame, thesis 2.4, 3.10).
 #pragma once
 
 #include <array>
@@ -29,6 +30,15 @@ struct RgbdFrame {
   /// Time of the depth map when the sensor does not take it with the image (TUM fr1/fr2:
   /// associated within 20 ms); 0 = simultaneous. See compensate_depth_time_offset.
   TimeNs depth_t_ns = 0;
+};
+
+/// One rectified stereo frame in disparity space (thesis 2.4): the LEFT view and its disparity.
+struct DisparityFrame {
+  TimeNs t_ns = 0;
+  cv::Mat image;         ///< rectified left view: CV_8UC3 BGR, CV_8UC1, or CV_32FC1 in [0, 1]
+  /// CV_32FC1, d = uL - uR in full-resolution pixels; <= 0, NaN or inf = no disparity
+  /// (sensor::kNoDisparity is +inf).
+  cv::Mat disparity_px;
 };
 
 enum class TrackFailure : std::uint8_t {
@@ -93,6 +103,11 @@ class DirectTracker {
   /// `camera` is the model of the input images: with distortion, frames are undistorted
   /// before tracking. Throws InputError for invalid options.
   explicit DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options = {});
+  /// Disparity input (thesis 2.4, 3.10): frames are rectified views of `rig` with disparity maps;
+  /// the reference points and Jacobians are built in disparity space (disparity_space.hpp) with
+  /// the baseline scaled per pyramid level. Throws InputError for an invalid rig or options that
+  /// need depth maps (use_depth_residual, compensate_depth_time_offset).
+  explicit DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options = {});
   ~DirectTracker();
   DirectTracker(const DirectTracker&) = delete;
   DirectTracker& operator=(const DirectTracker&) = delete;
@@ -100,6 +115,9 @@ class DirectTracker {
   /// Tracks the next frame of a sequence. The first frame (or the first after reset())
   /// defines the world frame and is returned at the identity.
   TrackResult track(const RgbdFrame& frame);
+  /// The same for a disparity frame (a tracker built from a rig; a depth tracker reports
+  /// kInvalidInput for it, and vice versa).
+  TrackResult track(const DisparityFrame& frame);
   /// Forgets the keyframe, motion and pose.
   void reset();
 
@@ -107,15 +125,23 @@ class DirectTracker {
   /// the two-frame problem, for tests and tools. Leaves the sequence state reset.
   TrackResult align_pair(const RgbdFrame& reference, const RgbdFrame& current,
                          const SE3& T_ref_cur_guess = SE3());
+  TrackResult align_pair(const DisparityFrame& reference, const DisparityFrame& current,
+                         const SE3& T_ref_cur_guess = SE3());
 
   [[nodiscard]] const PinholeCamera& camera() const { return camera_; }
   [[nodiscard]] const DirectTrackerOptions& options() const { return options_; }
+  /// True for a tracker built from a rectified rig (disparity input).
+  [[nodiscard]] bool disparity_input() const { return disparity_input_; }
 
   struct Impl;  // buffers and state, opaque (direct_tracker.cpp)
 
  private:
+  TrackResult track_prepared(TimeNs t_ns, TimeNs depth_t_ns);
+  TrackResult align_prepared_pair(const SE3& T_ref_cur_guess, TimeNs ref_t_ns, TimeNs t_ns);
+
   PinholeCamera camera_;  // undistorted
   DirectTrackerOptions options_;
+  bool disparity_input_ = false;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -3,8 +3,8 @@
 // (kestrel::stereo_odometry) so that the tracker itself depends on image/geometry only.
 #pragma once
 
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 
 #include "kestrel/odometry/direct_tracker.hpp"

@@ -19,26 +19,26 @@
 namespace kestrel::odometry {
 
 struct StereoOdometryExperimentOptions {
-  std::string scene = "corridor";    ///< a sim scene name (sim/scenes.hpp)
+  std::string scene = "corridor";      ///< a sim scene name (sim/scenes.hpp)
   std::string trajectory = "forward";  ///< a sim trajectory name (sim/smooth_trajectory.hpp)
   int frames = 90;
-  double rate_hz = 15.0;             ///< 90 frames at 15 Hz: the first 6 s of "forward" (2 m)
-  int width = 640;                   ///< camera image size
+  double rate_hz = 15.0;  ///< 90 frames at 15 Hz: the first 6 s of "forward" (2 m)
+  int width = 640;        ///< camera image size
   int height = 480;
-  double f_px = 420.0;               ///< rectified focal length at width x height
+  double f_px = 420.0;  ///< rectified focal length at width x height
   double baseline_m = 0.12;
-  double intensity_sigma = 2.0;      ///< camera noise, grey levels
+  double intensity_sigma = 2.0;  ///< camera noise, grey levels
   /// The active run's lighting: kAmbientAndPattern (the corridor's lights stay on) or kDarkRoom.
   sensor::ProjectorMode active_mode = sensor::ProjectorMode::kAmbientAndPattern;
   sensor::ProjectorOptions projector;
   sensor::PatternOptions pattern;
   sensor::BlockMatcherOptions matcher;
   DirectTrackerOptions tracker;
-  std::uint64_t seed = 1;            ///< pattern, textures, noise
+  std::uint64_t seed = 1;  ///< pattern, textures, noise
   /// When set, the passive and active sequences are also written as EuRoC/TUM folders
   /// (sim::SequenceWriter) under it: passive/, active/ (for `kestrel odometry --stereo`).
   std::filesystem::path write_sequences_to;
-  bool force = false;                ///< SequenceWriter's force
+  bool force = false;  ///< SequenceWriter's force
 
   /// Throws std::invalid_argument naming the first bad field.
   void validate() const;
@@ -51,17 +51,17 @@ struct StereoOdometryRun {
   std::string description;
   Trajectory estimate;  ///< T_world_cam of the left camera, first frame = identity
   int frames = 0;
-  int failures = 0;     ///< frames whose TrackResult is not ok (the prediction was reported)
+  int failures = 0;  ///< frames whose TrackResult is not ok (the prediction was reported)
   int keyframes = 0;
-  double mean_fill = 0.0;    ///< block matcher fill rate (valid / pixels), mean over frames
-  double mean_points = 0.0;  ///< reference points on the finest level, mean over tracked frames
+  double mean_fill = 0.0;     ///< block matcher fill rate (valid / pixels), mean over frames
+  double mean_points = 0.0;   ///< reference points on the finest level, mean over tracked frames
   std::string first_failure;  ///< "frame K: reason: detail" of the first failure
   bool evaluated = false;     ///< ATE/RPE could be computed
   eval::AteResult ate;
   eval::RpeResult rpe;
-  double final_error_m = 0.0;     ///< |p_est - p_gt| at the last frame, no alignment
-  double final_error_deg = 0.0;   ///< rotation error at the last frame, no alignment
-  double path_length_m = 0.0;     ///< ground-truth distance travelled
+  double final_error_m = 0.0;    ///< |p_est - p_gt| at the last frame, no alignment
+  double final_error_deg = 0.0;  ///< rotation error at the last frame, no alignment
+  double path_length_m = 0.0;    ///< ground-truth distance travelled
 };
 
 struct StereoOdometryExperimentResult {

@@ -1,0 +1,118 @@
+// The passive-vs-active stereo odometry experiment on the rendered corridor, at test size
+// (160x120, 20 frames: seconds). Full-size figures and commands: docs/stereo.md.
+#include <gtest/gtest.h>
+
+#include <iostream>
+#include <string>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/odometry/stereo_odometry.hpp"
+#include "kestrel/odometry/stereo_odometry_experiment.hpp"
+
+namespace kestrel::odometry {
+namespace {
+
+StereoOdometryExperimentOptions small_corridor() {
+  StereoOdometryExperimentOptions o;  // corridor, "forward" trajectory, ambient + pattern
+  o.width = 160;
+  o.height = 120;
+  o.f_px = 105.0;  // the same 71 deg field of view as the full-size 640x480, f 420
+  o.frames = 20;
+  o.rate_hz = 10.0;
+  o.matcher.block_size = 7;
+  o.matcher.max_disparity = 32;
+  o.tracker.pyramid_levels = 3;  // level 3 would be 20x15 pixels
+  return o;
+}
+
+const StereoOdometryRun& run_named(const StereoOdometryExperimentResult& r,
+                                   const std::string& name) {
+  for (const auto& run : r.runs) {
+    if (run.name == name) return run;
+  }
+  throw std::runtime_error("no run " + name);
+}
+
+TEST(StereoOdometryExperiment, CorridorPassiveVsActive) {
+  const StereoOdometryExperimentResult r = run_stereo_odometry_experiment(small_corridor());
+  std::cout << format_stereo_odometry_result(r);
+  ASSERT_EQ(r.runs.size(), 3U);
+  const StereoOdometryRun& passive = run_named(r, "passive");
+  const StereoOdometryRun& active = run_named(r, "active-ambient");
+  const StereoOdometryRun& active_depth = run_named(r, "active-depth");
+  const double path = passive.path_length_m;
+  ASSERT_GT(path, 0.3);  // "forward": 0.47 m in the first 2 s
+
+  // The pattern gives the matcher texture on the plain walls: far more disparities.
+  EXPECT_GT(active.mean_fill, 2.0 * passive.mean_fill);
+
+  // Tracking the pattern-lit images does not follow the motion: the pattern moves with the rig
+  // (it sits in the image where the depth puts it), so the photometric alignment sees a nearly
+  // still image. Measured at test size: final error 97 % of the path.
+  EXPECT_GT(active.final_error_m, 0.5 * path);
+
+  // Disparity from the pattern, intensity without it (infrared pattern or strobed projector):
+  // tracks. "Follows" = no tracking failure and a final drift below a quarter of the path.
+  EXPECT_EQ(active_depth.failures, 0) << active_depth.first_failure;
+  EXPECT_LT(active_depth.final_error_m, 0.25 * path);
+
+  // MEASURED, NOT THE ISSUE'S EXPECTATION: passive stereo odometry does not fail in this
+  // corridor. The tracker uses only high-gradient pixels, and the block matcher finds
+  // disparities exactly there (doors, skirting, floor texture), so passive tracking follows as
+  // well as the active-depth run (docs/stereo.md, "Disparity-space odometry"). If the corridor
+  // is made harder this check should start failing: then revisit the docs.
+  EXPECT_EQ(passive.failures, 0) << passive.first_failure;
+  EXPECT_LT(passive.final_error_m, 0.25 * path);
+}
+
+TEST(StereoOdometryExperiment, InvalidOptionsNameTheField) {
+  StereoOdometryExperimentOptions o = small_corridor();
+  o.frames = 1;
+  try {
+    run_stereo_odometry_experiment(o);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("frames"), std::string::npos) << e.what();
+  }
+  o = small_corridor();
+  o.active_mode = sensor::ProjectorMode::kOff;
+  EXPECT_THROW(run_stereo_odometry_experiment(o), std::invalid_argument);
+  o = small_corridor();
+  o.scene = "no-such-scene";
+  EXPECT_THROW(run_stereo_odometry_experiment(o), InputError);
+}
+
+TEST(StereoOdometry, BadPairsAreReportedWithTheReason) {
+  RectifiedStereo rig;
+  rig.f = 105.0;
+  rig.cu = 79.5;
+  rig.cv = 59.5;
+  rig.baseline_m = 0.12;
+  rig.width = 160;
+  rig.height = 120;
+  sensor::BlockMatcherOptions m;
+  m.max_disparity = 32;
+  StereoOdometry stereo(rig, m, DirectTrackerOptions{});
+  const cv::Mat left(120, 160, CV_8UC1, cv::Scalar(100));
+  const StereoTrackResult a = stereo.track(0, left, cv::Mat(100, 160, CV_8UC1, cv::Scalar(100)));
+  EXPECT_EQ(a.track.failure, TrackFailure::kInvalidInput);
+  EXPECT_FALSE(a.track.failure_detail.empty());
+  const StereoTrackResult b = stereo.track(0, cv::Mat(), cv::Mat());
+  EXPECT_EQ(b.track.failure, TrackFailure::kInvalidInput);
+  // A pair of another size than the rig's: the message names both sizes.
+  const cv::Mat small(60, 80, CV_8UC1, cv::Scalar(100));
+  const StereoTrackResult c = stereo.track(0, small, small);
+  EXPECT_EQ(c.track.failure, TrackFailure::kInvalidInput);
+  EXPECT_NE(c.track.failure_detail.find("160x120"), std::string::npos) << c.track.failure_detail;
+  // Invalid matcher options are an InputError naming the field.
+  m.block_size = 4;
+  try {
+    StereoOdometry bad(rig, m, DirectTrackerOptions{});
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("block"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace kestrel::odometry
