@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   kestrel::cli::add_disparity_command(app);
   kestrel::cli::add_stereo_experiment_command(app);
   kestrel::cli::add_fly_command(app);
+  kestrel::cli::add_capture_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

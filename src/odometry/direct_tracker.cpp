@@ -150,42 +150,33 @@ void DirectTracker::reset() {
 
 namespace {
 
-// Checks a frame against the camera; returns an empty string when it can be used.
-std::string check_frame(const RgbdFrame& f, const PinholeCamera& cam) {
-  if (f.image.empty()) return "empty image";
-  if (f.depth_m.empty()) return "empty depth map";
-  const int t = f.image.type();
+// Checks an image and its per-pixel map (depth or disparity, CV_32FC1 in `unit`) against the
+// camera; returns an empty string when they can be used.
+std::string check_image_and_map(const cv::Mat& image, const cv::Mat& map, const char* map_name,
+                                const char* unit, const PinholeCamera& cam, const char* owner) {
+  if (image.empty()) return "empty image";
+  if (map.empty()) return std::string("empty ") + map_name + " map";
+  const int t = image.type();
   if (t != CV_8UC3 && t != CV_8UC1 && t != CV_32FC1) {
     return "image type must be CV_8UC3, CV_8UC1 or CV_32FC1";
   }
-  if (f.depth_m.type() != CV_32FC1) return "depth type must be CV_32FC1 (metres)";
-  if (f.image.cols != cam.width() || f.image.rows != cam.height() ||
-      f.depth_m.size() != f.image.size()) {
-    return "frame size " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
-           " / depth " + std::to_string(f.depth_m.cols) + "x" + std::to_string(f.depth_m.rows) +
-           " does not match the camera's " + std::to_string(cam.width()) + "x" +
+  if (map.type() != CV_32FC1) return std::string(map_name) + " type must be CV_32FC1 (" + unit + ")";
+  if (image.cols != cam.width() || image.rows != cam.height() || map.size() != image.size()) {
+    return "frame size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + " / " +
+           map_name + " " + std::to_string(map.cols) + "x" + std::to_string(map.rows) +
+           " does not match the " + owner + " " + std::to_string(cam.width()) + "x" +
            std::to_string(cam.height());
   }
   return {};
 }
 
-// The same for a disparity frame of a rectified rig.
+std::string check_frame(const RgbdFrame& f, const PinholeCamera& cam) {
+  return check_image_and_map(f.image, f.depth_m, "depth", "metres", cam, "camera's");
+}
+
+// A disparity frame of a rectified rig.
 std::string check_frame(const DisparityFrame& f, const PinholeCamera& cam) {
-  if (f.image.empty()) return "empty image";
-  if (f.disparity_px.empty()) return "empty disparity map";
-  const int t = f.image.type();
-  if (t != CV_8UC3 && t != CV_8UC1 && t != CV_32FC1) {
-    return "image type must be CV_8UC3, CV_8UC1 or CV_32FC1";
-  }
-  if (f.disparity_px.type() != CV_32FC1) return "disparity type must be CV_32FC1 (pixels)";
-  if (f.image.cols != cam.width() || f.image.rows != cam.height() ||
-      f.disparity_px.size() != f.image.size()) {
-    return "frame size " + std::to_string(f.image.cols) + "x" + std::to_string(f.image.rows) +
-           " / disparity " + std::to_string(f.disparity_px.cols) + "x" +
-           std::to_string(f.disparity_px.rows) + " does not match the rig's " +
-           std::to_string(cam.width()) + "x" + std::to_string(cam.height());
-  }
-  return {};
+  return check_image_and_map(f.image, f.disparity_px, "disparity", "pixels", cam, "rig's");
 }
 
 }  // namespace
