@@ -23,14 +23,6 @@ sim::RenderOptions render_options(const StereoVisionOptions& o) {
 
 }  // namespace
 
-SE3 forward_camera_mount(double ahead_m) {
-  Eigen::Matrix3d R_body_cam;
-  R_body_cam << 0, 0, 1,  //
-      -1, 0, 0,           //
-      0, -1, 0;
-  return {SO3::from_matrix(R_body_cam), Eigen::Vector3d(ahead_m, 0.0, 0.0)};
-}
-
 sensor::ProjectorOptions rig_projector_options() {
   sensor::ProjectorOptions p;
   // Shadow rays test every face of the scene; from 8 cm beside the camera the projector's

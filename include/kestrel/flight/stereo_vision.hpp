@@ -16,12 +16,9 @@
 #include "kestrel/sensor/projector.hpp"
 #include "kestrel/sim/renderer.hpp"
 #include "kestrel/sim/scene.hpp"
+#include "kestrel/sim/smooth_trajectory.hpp"
 
 namespace kestrel::flight {
-
-/// A camera looking along the body's x axis (optical z = body x, x = -y, y = -z), `ahead_m`
-/// in front of the body origin.
-SE3 forward_camera_mount(double ahead_m);
 
 /// The projector of the flying rig: ProjectorOptions' defaults without shadow rays.
 sensor::ProjectorOptions rig_projector_options();
@@ -36,7 +33,7 @@ struct StereoVisionOptions {
   double baseline_m = 0.12;
   /// Left camera's optical frame (x right, y down, z forward) in the body frame (x forward,
   /// y left, z up).
-  SE3 T_body_cam = forward_camera_mount(0.10);
+  SE3 T_body_cam = SE3(SO3(), Eigen::Vector3d(0.10, 0.0, 0.0)) * sim::forward_camera_mount();
   sensor::ProjectorMode projector_mode = sensor::ProjectorMode::kAmbientAndPattern;
   /// What the odometry tracks. true: the left view without the pattern, as with an infrared
   /// (or strobed) projector that the stereo pair sees and the tracking image does not (thesis
