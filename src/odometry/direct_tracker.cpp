@@ -641,7 +641,8 @@ struct AlignRunner {
       // The geometric residual joins where enough points have a normal.
       const bool geo = o.use_depth_residual && o.depth_residual_weight > 0.0 &&
                        L.normal_count >= o.min_points;
-      const cv::Mat& cur_depth = m.depth_pyramid.level(l);
+      // Built only with use_depth_residual: no reference to a level that does not exist.
+      const cv::Mat* cur_depth = geo ? &m.depth_pyramid.level(l) : nullptr;
       const auto geo_lambda = static_cast<float>(o.depth_residual_weight);
       const auto geo_spread = static_cast<float>(o.depth_residual_max_relative_spread);
       // Geometric cost: points with a normal whose sample is missing cost the maximum, like
@@ -689,7 +690,7 @@ struct AlignRunner {
       for (int it = 0; it < max_iter; ++it) {
         inside = TrackerAccess::warp_residuals(m, L, cur, T, static_cast<float>(alpha),
                                                static_cast<float>(beta));
-        if (geo) geo_count = TrackerAccess::warp_geometric(m, L, cur_depth, T, geo_spread);
+        if (geo) geo_count = TrackerAccess::warp_geometric(m, L, *cur_depth, T, geo_spread);
         ++res.iterations;
         if (inside < o.min_points) {
           if (it > 0) {  // the last step left the image: undo it and stop this level
