@@ -15,5 +15,6 @@ void add_disparity_command(CLI::App& app);
 void add_stereo_experiment_command(CLI::App& app);
 void add_fly_command(CLI::App& app);
 void add_capture_command(CLI::App& app);
+void add_run_command(CLI::App& app);
 
 }  // namespace kestrel::cli

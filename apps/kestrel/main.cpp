@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   kestrel::cli::add_stereo_experiment_command(app);
   kestrel::cli::add_fly_command(app);
   kestrel::cli::add_capture_command(app);
+  kestrel::cli::add_run_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,51 @@
+// Options of `kestrel run`: the real-time pipeline over a recorded EuRoC folder. YAML keys are
+// the field names; file paths inside the config are relative to the config file's folder.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/odometry/direct_tracker_options.hpp"
+#include "kestrel/sensor/block_matcher.hpp"
+
+namespace kestrel::pipeline {
+
+enum class Pace {
+  kFast,      ///< every frame as soon as the pipeline can take it (throughput)
+  kRecorded,  ///< frames and IMU released at their recorded times (real-time behaviour)
+};
+
+struct PipelineOptions {
+  std::filesystem::path input;  ///< EuRoC folder (holding mav0/, or mav0 itself); required
+  Pace pace = Pace::kFast;
+  /// Full queues drop their oldest item (stale frames) instead of making the producer wait.
+  /// Unset: true for the recorded pace (real time), false for fast (offline, nothing lost).
+  std::optional<bool> drop_stale;
+  std::size_t frame_queue_capacity = 2;      ///< source -> depth, depth -> tracker
+  std::size_t fusion_queue_capacity = 1024;  ///< IMU + tracker results -> fusion
+  std::size_t state_queue_capacity = 64;     ///< fusion -> controller
+  std::size_t max_frames = 0;                ///< 0: every stereo pair of the folder
+  /// The tracker's covariance treats pixels as independent; the fusion gets it times this
+  /// (as flight/stereo_vision.hpp does).
+  double vo_covariance_scale = 25.0;
+  std::filesystem::path output = "trajectory.txt";  ///< fused trajectory (TUM), under --out
+
+  sensor::BlockMatcherOptions matcher;
+  odometry::DirectTrackerOptions tracker;
+  fusion::FusionOptions fusion;  ///< IMU noise and T_body_cam are taken from the folder
+
+  [[nodiscard]] bool drops() const { return drop_stale.value_or(pace == Pace::kRecorded); }
+  /// Loads a config file; unknown keys and bad values are InputErrors naming the file and
+  /// field. Keys: input, pace (fast|recorded), drop_stale, frame_queue_capacity,
+  /// fusion_queue_capacity, state_queue_capacity, max_frames, vo_covariance_scale, output,
+  /// matcher_options / tracker_options / fusion_options (files), tracker (inline map).
+  static PipelineOptions load_yaml(const std::filesystem::path& path);
+  /// Throws InputError for impossible values (zero capacities, non-positive scale).
+  void validate() const;
+  [[nodiscard]] std::string describe() const;
+};
+
+}  // namespace kestrel::pipeline

@@ -1,0 +1,334 @@
+// The stages of the real-time pipeline and their wiring (see pipeline.hpp and docs/pipeline.md).
+#include "kestrel/pipeline/pipeline.hpp"
+
+#include <algorithm>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <variant>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/euroc.hpp"
+#include "kestrel/odometry/direct_tracker.hpp"
+#include "kestrel/pipeline/bounded_queue.hpp"
+#include "kestrel/sensor/block_matcher.hpp"
+#include "kestrel/sensor/rectification.hpp"
+
+namespace kestrel::pipeline {
+
+namespace {
+
+// What travels between the stages. Every item carries its capture time (data time) and the
+// steady-clock time its image pair entered the pipeline, from which latencies are measured.
+struct FrameItem {
+  TimeNs t_ns = 0;
+  Clock::time_point arrived;
+  cv::Mat left, right;
+};
+struct DisparityItem {
+  TimeNs t_ns = 0;
+  Clock::time_point arrived;
+  cv::Mat left_rect, disparity;  // fresh buffers per frame: shared read-only downstream
+};
+struct TrackItem {
+  TimeNs t_ns = 0;
+  Clock::time_point arrived;
+  std::optional<fusion::RelativePoseMeasurement> measurement;  // none: tracking failed
+};
+using FusionInput = std::variant<io::ImuSample, TrackItem>;
+struct StateItem {
+  fusion::FusedState state;
+  Clock::time_point arrived;
+};
+
+// Everything the stage threads share. A stage that throws stores the first exception and
+// closes every queue, so that the others finish instead of waiting forever.
+struct Context {
+  const PipelineOptions& options;
+  const std::atomic<bool>* stop;
+  const io::EurocSequence& sequence;
+  std::size_t frames = 0;
+  sensor::StereoRectifier& rectifier;
+  sensor::BlockMatcher& matcher;
+  odometry::DirectTracker& tracker;
+  fusion::FusionOptions fusion_options;
+
+  BoundedQueue<FrameItem> frame_q;
+  BoundedQueue<DisparityItem> disparity_q;
+  BoundedQueue<FusionInput> fusion_q;
+  BoundedQueue<StateItem> state_q;
+  std::atomic<int> fusion_producers{2};  // source (IMU) and tracker
+  std::atomic<bool> abort{false};
+  std::mutex error_mutex;
+  std::exception_ptr error;
+
+  std::size_t imu_samples = 0;
+  std::size_t stereo_pairs = 0;
+  fusion::FusionCounters fusion_counters;
+  std::vector<fusion::FusedState> states;
+
+  Context(const PipelineOptions& o, const std::atomic<bool>* s, const io::EurocSequence& seq,
+          sensor::StereoRectifier& r, sensor::BlockMatcher& m, odometry::DirectTracker& t,
+          const fusion::FusionOptions& f)
+      : options(o),
+        stop(s),
+        sequence(seq),
+        rectifier(r),
+        matcher(m),
+        tracker(t),
+        fusion_options(f),
+        frame_q(o.frame_queue_capacity, policy(o)),
+        disparity_q(o.frame_queue_capacity, policy(o)),
+        fusion_q(o.fusion_queue_capacity, policy(o)),
+        state_q(o.state_queue_capacity, policy(o)) {}
+
+  static OverflowPolicy policy(const PipelineOptions& o) {
+    return o.drops() ? OverflowPolicy::kDropOldest : OverflowPolicy::kBlock;
+  }
+  [[nodiscard]] bool stopping() const { return abort.load() || (stop != nullptr && stop->load()); }
+  void fusion_producer_done() {
+    if (fusion_producers.fetch_sub(1) == 1) fusion_q.close();
+  }
+  void fail(std::exception_ptr e) {
+    {
+      std::lock_guard lock(error_mutex);
+      if (!error) error = std::move(e);
+    }
+    abort = true;
+    frame_q.close();
+    disparity_q.close();
+    fusion_q.close();
+    state_q.close();
+  }
+};
+
+// Recorded pace: sleeps until data time `t_ns` (relative to the first pair) has come on the
+// wall clock, in short steps so that a stop request is seen. False if stopping.
+bool wait_for_data_time(Context& c, TimeNs t_ns, TimeNs t0_ns, Clock::time_point wall0) {
+  if (c.options.pace == Pace::kRecorded) {
+    const auto target = wall0 + std::chrono::nanoseconds(std::max<TimeNs>(0, t_ns - t0_ns));
+    while (Clock::now() < target && !c.stopping()) {
+      std::this_thread::sleep_until(std::min(target, Clock::now() + std::chrono::milliseconds(20)));
+    }
+  }
+  return !c.stopping();
+}
+
+void source_stage(Context& c, StageStats& st) {
+  const TimeNs t0 = c.sequence.stereo_timestamp(0);
+  // IMU from shortly before the first pair (the static initialisation's window), not the
+  // whole recording: EuRoC parts hold the IMU of the full sequence.
+  const TimeNs imu_start = t0 - static_cast<TimeNs>((c.fusion_options.static_init_s + 0.1) * 1e9);
+  io::ImuCsvReader imu(c.sequence.imu_csv());
+  io::ImuSample sample;
+  bool have_imu = imu.next(sample);
+  const auto wall0 = Clock::now();
+  for (std::size_t i = 0; i < c.frames && !c.stopping(); ++i) {
+    const TimeNs t = c.sequence.stereo_timestamp(i);
+    while (have_imu && sample.t_ns <= t) {
+      if (sample.t_ns >= imu_start) {
+        if (!wait_for_data_time(c, sample.t_ns, t0, wall0)) break;
+        if (c.fusion_q.push(sample)) ++c.imu_samples;
+      }
+      have_imu = imu.next(sample);
+    }
+    if (!wait_for_data_time(c, t, t0, wall0)) break;
+    // Decoding stands for the camera driver: the pair "arrives" once it is an image.
+    const auto start = Clock::now();
+    io::StereoImages images = c.sequence.load_stereo(i);
+    const auto arrived = Clock::now();
+    ++st.in;
+    st.add_processing(start, arrived);
+    if (c.frame_q.push(
+            FrameItem{images.t_ns, arrived, std::move(images.left), std::move(images.right)})) {
+      ++c.stereo_pairs;
+      st.add_output(arrived, Clock::now());
+    }
+  }
+  c.frame_q.close();
+  c.fusion_producer_done();
+}
+
+void depth_stage(Context& c, StageStats& st) {
+  while (auto item = c.frame_q.pop()) {
+    ++st.in;
+    const auto start = Clock::now();
+    DisparityItem out{item->t_ns, item->arrived, {}, {}};
+    cv::Mat right_rect;
+    c.rectifier.rectify(item->left, item->right, out.left_rect, right_rect);
+    const sensor::MatchStats m = c.matcher.match(out.left_rect, right_rect, out.disparity);
+    if (m.valid == 0) ++st.failed;
+    st.add_processing(start, Clock::now());
+    const auto arrived = out.arrived;
+    if (c.disparity_q.push(std::move(out))) st.add_output(arrived, Clock::now());
+  }
+  c.disparity_q.close();
+}
+
+void tracker_stage(Context& c, StageStats& st) {
+  std::optional<std::pair<TimeNs, SE3>> last;  // the last tracked frame: the fusion's clone
+  while (auto item = c.disparity_q.pop()) {
+    ++st.in;
+    const auto start = Clock::now();
+    const odometry::TrackResult r =
+        c.tracker.track(odometry::DisparityFrame{item->t_ns, item->left_rect, item->disparity});
+    TrackItem out{item->t_ns, item->arrived, std::nullopt};
+    if (r.ok()) {
+      fusion::RelativePoseMeasurement m;
+      m.t_ns = item->t_ns;
+      if (last) {
+        m.t_ref_ns = last->first;
+        m.T_ref_cur = last->second.inverse() * r.T_world_cam;
+        m.covariance = c.options.vo_covariance_scale * r.covariance;
+      } else {
+        m.t_ref_ns = item->t_ns;  // no reference yet: the fusion only clones here
+        m.covariance = Matrix6d::Identity();
+      }
+      out.measurement = m;
+      last = std::make_pair(item->t_ns, r.T_world_cam);
+    } else {
+      ++st.failed;
+    }
+    st.add_processing(start, Clock::now());
+    const auto arrived = out.arrived;
+    if (c.fusion_q.push(std::move(out))) st.add_output(arrived, Clock::now());
+  }
+  c.fusion_producer_done();
+}
+
+// The fusion holds IMU samples until the tracker's result for a later frame has come, so the
+// engine sees its inputs in time order however far the IMU runs ahead of the images (it
+// arrives without processing delay); its own reorder window is therefore 0.
+void fusion_stage(Context& c, StageStats& st) {
+  fusion::FusionEngine engine(c.fusion_options);
+  std::deque<io::ImuSample> held;
+  auto emit = [&](const std::vector<fusion::FusedState>& states, Clock::time_point arrived) {
+    for (const auto& s : states) {
+      if (c.state_q.push(StateItem{s, arrived})) st.add_output(arrived, Clock::now());
+    }
+  };
+  Clock::time_point last_arrived = Clock::now();
+  while (auto input = c.fusion_q.pop()) {
+    if (auto* imu = std::get_if<io::ImuSample>(&*input)) {
+      held.push_back(*imu);
+      continue;
+    }
+    const auto& item = std::get<TrackItem>(*input);
+    ++st.in;
+    const auto start = Clock::now();
+    while (!held.empty() && held.front().t_ns <= item.t_ns) {
+      engine.add_imu(held.front());
+      held.pop_front();
+    }
+    if (item.measurement) engine.add_relative_pose(*item.measurement);
+    const auto states = engine.poll(/*imu_rate=*/false);
+    st.add_processing(start, Clock::now());
+    last_arrived = item.arrived;
+    emit(states, item.arrived);
+  }
+  for (const auto& s : held) engine.add_imu(s);
+  emit(engine.flush(/*imu_rate=*/false), last_arrived);
+  c.fusion_counters = engine.counters();
+  c.state_q.close();
+}
+
+// The controller's place: it takes each fused state as the position controller would and
+// records it; computing commands is left to `kestrel fly`'s closed loop.
+void controller_stage(Context& c, StageStats& st) {
+  while (auto item = c.state_q.pop()) {
+    ++st.in;
+    const auto start = Clock::now();
+    c.states.push_back(item->state);
+    const auto end = Clock::now();
+    st.add_processing(start, end);
+    st.add_output(item->arrived, end);
+  }
+}
+
+SE3 body_from_rectified_camera(const io::EurocSequence& sequence,
+                               const Eigen::Matrix3d& R_rect_left) {
+  const io::CameraFile cam0 = sequence.cam0_calibration();
+  if (!cam0.T_body_sensor) {
+    throw InputError(sequence.mav0() / "cam0" / "sensor.yaml", "T_BS",
+                     "missing (camera-to-body extrinsics, needed by the fusion)");
+  }
+  // Poses are of the rectified left camera: T_body_rect = T_BS * T_cam0_rect.
+  return *cam0.T_body_sensor *
+         SE3(SO3::from_matrix(R_rect_left.transpose()), Eigen::Vector3d::Zero());
+}
+
+}  // namespace
+
+PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bool>* stop) {
+  options.validate();
+  if (!std::filesystem::exists(options.input)) {
+    throw InputError(options.input.string() + ": input folder does not exist");
+  }
+  const io::EurocSequence sequence(options.input);
+  if (sequence.stereo_size() == 0) {
+    throw InputError(options.input.string() +
+                     ": no stereo pairs (cam0 and cam1 frames with "
+                     "equal time stamps)");
+  }
+  if (!sequence.has_imu())
+    throw InputError(options.input.string() + ": no imu0/ (the fusion needs it)");
+
+  sensor::StereoRectifier rectifier(sensor::StereoCalibration::from_euroc(sequence));
+  const RectifiedStereo& rig = rectifier.rig();
+  std::optional<sensor::BlockMatcher> matcher;
+  try {
+    matcher.emplace(options.matcher, rig);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("block matcher: ") + e.what());
+  }
+  odometry::DirectTracker tracker(rig, options.tracker);
+  fusion::FusionOptions fusion_options = options.fusion;
+  fusion_options.set_imu_noise(sequence.imu_noise());
+  fusion_options.T_body_cam = body_from_rectified_camera(sequence, rectifier.R_rect_left());
+  fusion_options.reorder_window_s = 0.0;  // the fusion stage orders its inputs itself
+  fusion_options.validate();
+
+  Context c(options, stop, sequence, rectifier, *matcher, tracker, fusion_options);
+  c.frames = options.max_frames == 0 ? sequence.stereo_size()
+                                     : std::min(options.max_frames, sequence.stereo_size());
+
+  PipelineReport report;
+  report.rig = rig;
+  report.stages.resize(5);
+  const char* names[] = {"source", "depth", "tracker", "fusion", "controller"};
+  for (std::size_t i = 0; i < 5; ++i) report.stages[i].name = names[i];
+  using StageFn = void (*)(Context&, StageStats&);
+  const StageFn fns[] = {source_stage, depth_stage, tracker_stage, fusion_stage, controller_stage};
+
+  const auto wall0 = Clock::now();
+  std::vector<std::thread> threads;
+  threads.reserve(5);
+  for (std::size_t i = 0; i < 5; ++i) {
+    threads.emplace_back([&c, &report, fn = fns[i], i] {
+      try {
+        fn(c, report.stages[i]);
+      } catch (...) {
+        c.fail(std::current_exception());
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  if (c.error) std::rethrow_exception(c.error);
+
+  report.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  report.stages[1].dropped = c.frame_q.dropped();
+  report.stages[2].dropped = c.disparity_q.dropped();
+  report.stages[3].dropped = c.fusion_q.dropped();
+  report.stages[4].dropped = c.state_q.dropped();
+  report.end_to_end_ms = report.stages[3].latency_ms;
+  report.states = std::move(c.states);
+  report.stereo_pairs = c.stereo_pairs;
+  report.imu_samples = c.imu_samples;
+  report.fusion_counters = c.fusion_counters;
+  report.fusion_options = fusion_options;
+  report.interrupted = stop != nullptr && stop->load() && c.stereo_pairs < c.frames;
+  return report;
+}
+
+}  // namespace kestrel::pipeline

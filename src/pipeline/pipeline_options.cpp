@@ -1,0 +1,109 @@
+// Loading and checking the pipeline's config YAML.
+#include "kestrel/pipeline/pipeline_options.hpp"
+
+#include <sstream>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/yaml_file.hpp"
+
+namespace kestrel::pipeline {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A path in the config: relative ones are taken from the config file's folder, so that a
+// config and its option files can move together.
+fs::path config_path(const fs::path& config, const YAML::Node& value) {
+  const fs::path p = value.as<std::string>();
+  return p.is_absolute() ? p : config.parent_path() / p;
+}
+
+std::size_t positive_size(const fs::path& config, const std::string& key, const YAML::Node& v) {
+  const long long n = v.as<long long>();
+  if (n < 1) throw InputError(config, key, "must be at least 1, got " + std::to_string(n));
+  return static_cast<std::size_t>(n);
+}
+
+}  // namespace
+
+PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
+  const YAML::Node root = io::load_yaml_file(path);
+  if (!root.IsMap()) throw InputError(path.string() + ": expected a YAML map of pipeline options");
+  PipelineOptions o;
+  bool have_input = false;
+  for (const auto& kv : root) {
+    const auto key = kv.first.as<std::string>();
+    const YAML::Node& v = kv.second;
+    try {
+      if (key == "input") {
+        o.input = config_path(path, v);
+        have_input = true;
+      } else if (key == "pace") {
+        const auto s = v.as<std::string>();
+        if (s == "fast")
+          o.pace = Pace::kFast;
+        else if (s == "recorded")
+          o.pace = Pace::kRecorded;
+        else
+          throw InputError(path, key, "must be fast or recorded, got '" + s + "'");
+      } else if (key == "drop_stale") {
+        o.drop_stale = v.as<bool>();
+      } else if (key == "frame_queue_capacity") {
+        o.frame_queue_capacity = positive_size(path, key, v);
+      } else if (key == "fusion_queue_capacity") {
+        o.fusion_queue_capacity = positive_size(path, key, v);
+      } else if (key == "state_queue_capacity") {
+        o.state_queue_capacity = positive_size(path, key, v);
+      } else if (key == "max_frames") {
+        const long long n = v.as<long long>();
+        if (n < 0) throw InputError(path, key, "must be 0 (all) or positive");
+        o.max_frames = static_cast<std::size_t>(n);
+      } else if (key == "vo_covariance_scale") {
+        o.vo_covariance_scale = v.as<double>();
+        if (!(o.vo_covariance_scale > 0.0)) throw InputError(path, key, "must be positive");
+      } else if (key == "output") {
+        o.output = v.as<std::string>();
+      } else if (key == "matcher_options") {
+        o.matcher = sensor::BlockMatcherOptions::load_yaml(config_path(path, v));
+      } else if (key == "tracker_options") {
+        o.tracker = odometry::DirectTrackerOptions::load(config_path(path, v));
+      } else if (key == "tracker") {
+        o.tracker = odometry::DirectTrackerOptions::from_yaml(v, path.string() + ": tracker");
+      } else if (key == "fusion_options") {
+        o.fusion = fusion::FusionOptions::load_yaml(config_path(path, v));
+      } else {
+        throw InputError(path, key, "unknown pipeline option");
+      }
+    } catch (const YAML::Exception&) {
+      throw InputError(path, key, "has the wrong type");
+    }
+  }
+  if (!have_input) throw InputError(path, "input", "missing (the EuRoC folder to run on)");
+  try {
+    o.validate();
+  } catch (const InputError& e) {
+    throw InputError(path.string() + ": " + e.what());
+  }
+  return o;
+}
+
+void PipelineOptions::validate() const {
+  if (frame_queue_capacity < 1 || fusion_queue_capacity < 1 || state_queue_capacity < 1) {
+    throw InputError("queue capacities must be at least 1");
+  }
+  if (!(vo_covariance_scale > 0.0)) throw InputError("vo_covariance_scale must be positive");
+  if (output.empty()) throw InputError("output must name a file");
+}
+
+std::string PipelineOptions::describe() const {
+  std::ostringstream s;
+  s << "input=" << input.string() << " pace=" << (pace == Pace::kFast ? "fast" : "recorded")
+    << " drop_stale=" << (drops() ? "true" : "false") << " queues frame=" << frame_queue_capacity
+    << " fusion=" << fusion_queue_capacity << " state=" << state_queue_capacity
+    << " max_frames=" << max_frames << " vo_covariance_scale=" << vo_covariance_scale
+    << " output=" << output.string();
+  return s.str();
+}
+
+}  // namespace kestrel::pipeline
