@@ -12,6 +12,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <future>
 #include <sstream>
 #include <stdexcept>
 
@@ -486,8 +487,14 @@ void StereoRenderer::add_rig_light(const std::shared_ptr<const LightSource>& lig
 }
 
 void StereoRenderer::render(const Scene& scene, const SE3& T_world_left, StereoFrame& frame) {
+  // The views render concurrently: separate renderers (buffers, noise generators), the scene
+  // and its lights const, so the frame is the same as rendering one after the other.
+  const SE3 T_world_right = T_world_left * T_left_right();
+  std::future<void> right = std::async(std::launch::async, [this, &scene, &T_world_right, &frame] {
+    right_.render(scene, T_world_right, frame.right);
+  });
   left_.render(scene, T_world_left, frame.left);
-  right_.render(scene, T_world_left * T_left_right(), frame.right);
+  right.get();
   const cv::Mat& z = left_.exact_depth_m();
   frame.disparity_px.create(z.size(), CV_32F);
   const double bf = rig_.baseline_m * rig_.f;
