@@ -32,25 +32,10 @@ std::optional<PinholeCamera> camera_preset(std::string_view name) {
 
 namespace {
 
-const YAML::Node require(const YAML::Node& map, const std::string& key, const fs::path& path,
-                         const std::string& prefix) {
-  if (!map.IsMap() || !map[key]) throw InputError(path, prefix + key, "is missing");
-  return map[key];
-}
-
-template <typename T>
-T as(const YAML::Node& node, const fs::path& path, const std::string& field) {
-  try {
-    return node.as<T>();
-  } catch (const YAML::Exception&) {
-    throw InputError(path, field, "has the wrong type");
-  }
-}
-
 std::vector<double> as_numbers(const YAML::Node& node, const fs::path& path,
                                const std::string& field, std::size_t min_n, std::size_t max_n) {
   if (!node.IsSequence()) throw InputError(path, field, "must be a list of numbers");
-  std::vector<double> out = as<std::vector<double>>(node, path, field);
+  std::vector<double> out = yaml_as<std::vector<double>>(node, path, field);
   if (out.size() < min_n || out.size() > max_n) {
     throw InputError(path, field,
                      "has " + std::to_string(out.size()) + " values, expected " +
@@ -70,17 +55,17 @@ PinholeCamera make_camera(const PinholeIntrinsics& k, const RadTanDistortion& d,
 }
 
 CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
-  const std::string model = as<std::string>(require(root, "camera_model", path, ""), path,
+  const std::string model = yaml_as<std::string>(yaml_require(root, "camera_model", path, ""), path,
                                             "camera_model");
   if (model != "pinhole") {
     throw InputError(path, "camera_model", "'" + model + "' is not supported (only pinhole)");
   }
-  const auto k = as_numbers(require(root, "intrinsics", path, ""), path, "intrinsics", 4, 4);
-  const auto res = as_numbers(require(root, "resolution", path, ""), path, "resolution", 2, 2);
+  const auto k = as_numbers(yaml_require(root, "intrinsics", path, ""), path, "intrinsics", 4, 4);
+  const auto res = as_numbers(yaml_require(root, "resolution", path, ""), path, "resolution", 2, 2);
   RadTanDistortion d;
   if (root["distortion_coefficients"]) {
     const std::string dm = root["distortion_model"]
-                               ? as<std::string>(root["distortion_model"], path, "distortion_model")
+                               ? yaml_as<std::string>(root["distortion_model"], path, "distortion_model")
                                : "radial-tangential";
     if (dm != "radial-tangential" && dm != "radtan" && dm != "plumb_bob") {
       throw InputError(path, "distortion_model", "'" + dm + "' is not supported (radial-tangential only)");
@@ -93,7 +78,7 @@ CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
                              d, path, "intrinsics"),
                  std::nullopt};
   if (root["T_BS"]) {
-    const auto m = as_numbers(require(root["T_BS"], "data", path, "T_BS."), path, "T_BS.data", 16, 16);
+    const auto m = as_numbers(yaml_require(root["T_BS"], "data", path, "T_BS."), path, "T_BS.data", 16, 16);
     Eigen::Matrix4d T;
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) T(r, c) = m[static_cast<std::size_t>(4 * r + c)];
@@ -107,19 +92,7 @@ CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
 }
 
 CameraFile load_kestrel(const YAML::Node& root, const fs::path& path) {
-  const YAML::Node cam = require(root, "camera", path, "");
-  const auto num = [&](const char* key) {
-    return as<double>(require(cam, key, path, "camera."), path, std::string("camera.") + key);
-  };
-  PinholeIntrinsics k{num("fx"), num("fy"), num("cx"), num("cy"),
-                      as<int>(require(cam, "width", path, "camera."), path, "camera.width"),
-                      as<int>(require(cam, "height", path, "camera."), path, "camera.height")};
-  RadTanDistortion d;
-  if (cam["distortion"]) {
-    const auto c = as_numbers(cam["distortion"], path, "camera.distortion", 4, 5);
-    d = {c[0], c[1], c[2], c[3], c.size() == 5 ? c[4] : 0.0};
-  }
-  return {make_camera(k, d, path, "camera"), std::nullopt};
+  return {camera_from_yaml(yaml_require(root, "camera", path, ""), path, "camera"), std::nullopt};
 }
 
 std::string number(double v) {
@@ -137,6 +110,24 @@ void write_text(const fs::path& path, const std::string& text, std::string_view 
 }
 
 }  // namespace
+
+PinholeCamera camera_from_yaml(const YAML::Node& map, const fs::path& path,
+                               const std::string& field) {
+  if (!map.IsMap()) throw InputError(path, field, "must be a map");
+  const std::string prefix = field + ".";
+  const auto num = [&](const char* key) {
+    return yaml_as<double>(yaml_require(map, key, path, prefix), path, prefix + key);
+  };
+  PinholeIntrinsics k{num("fx"), num("fy"), num("cx"), num("cy"),
+                      yaml_as<int>(yaml_require(map, "width", path, prefix), path, prefix + "width"),
+                      yaml_as<int>(yaml_require(map, "height", path, prefix), path, prefix + "height")};
+  RadTanDistortion d;
+  if (map["distortion"]) {
+    const auto c = as_numbers(map["distortion"], path, prefix + "distortion", 4, 5);
+    d = {c[0], c[1], c[2], c[3], c.size() == 5 ? c[4] : 0.0};
+  }
+  return make_camera(k, d, path, field);
+}
 
 CameraFile load_camera_file(const fs::path& path) {
   if (!fs::exists(path)) throw InputError(path.string() + ": no such camera file");
@@ -161,13 +152,13 @@ PinholeCamera load_camera(const std::string& preset_or_path) {
 RectifiedStereo load_rectified_stereo(const fs::path& path) {
   if (!fs::exists(path)) throw InputError(path.string() + ": no such stereo calibration file");
   const YAML::Node root = load_yaml_file(path);
-  const YAML::Node st = require(root, "stereo", path, "");
+  const YAML::Node st = yaml_require(root, "stereo", path, "");
   const auto num = [&](const char* key) {
-    return as<double>(require(st, key, path, "stereo."), path, std::string("stereo.") + key);
+    return yaml_as<double>(yaml_require(st, key, path, "stereo."), path, std::string("stereo.") + key);
   };
   RectifiedStereo s{num("f"), num("cu"), num("cv"), num("baseline_m"),
-                    as<int>(require(st, "width", path, "stereo."), path, "stereo.width"),
-                    as<int>(require(st, "height", path, "stereo."), path, "stereo.height")};
+                    yaml_as<int>(yaml_require(st, "width", path, "stereo."), path, "stereo.width"),
+                    yaml_as<int>(yaml_require(st, "height", path, "stereo."), path, "stereo.height")};
   try {
     s.validate();
   } catch (const std::invalid_argument& e) {

@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <type_traits>
 #include <cmath>
 #include <cstdlib>
 #include <numbers>
@@ -1046,12 +1047,14 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
   return result;
 }
 
-TrackResult DirectTracker::align_pair(const RgbdFrame& reference, const RgbdFrame& current,
-                                      const SE3& T_ref_cur_guess) {
+template <typename Frame>
+TrackResult DirectTracker::align_frames(const Frame& reference, const Frame& current,
+                                        const SE3& T_ref_cur_guess) {
   Impl& m = *impl_;
   reset();
-  for (const RgbdFrame* f : {&reference, &current}) {
-    std::string bad = check_input_kind(disparity_input_, false);
+  for (const Frame* f : {&reference, &current}) {
+    std::string bad =
+        check_input_kind(disparity_input_, std::is_same_v<Frame, DisparityFrame>);
     if (bad.empty()) bad = check_frame(*f, camera_);
     if (!bad.empty()) return invalid_input(current, bad, SE3());
   }
@@ -1061,19 +1064,14 @@ TrackResult DirectTracker::align_pair(const RgbdFrame& reference, const RgbdFram
   return align_prepared_pair(T_ref_cur_guess, reference.t_ns, current.t_ns);
 }
 
+TrackResult DirectTracker::align_pair(const RgbdFrame& reference, const RgbdFrame& current,
+                                      const SE3& T_ref_cur_guess) {
+  return align_frames(reference, current, T_ref_cur_guess);
+}
+
 TrackResult DirectTracker::align_pair(const DisparityFrame& reference,
                                       const DisparityFrame& current, const SE3& T_ref_cur_guess) {
-  Impl& m = *impl_;
-  reset();
-  for (const DisparityFrame* f : {&reference, &current}) {
-    std::string bad = check_input_kind(disparity_input_, true);
-    if (bad.empty()) bad = check_frame(*f, camera_);
-    if (!bad.empty()) return invalid_input(current, bad, SE3());
-  }
-  prepare_frame(m, reference, options_);
-  TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-  prepare_frame(m, current, options_);
-  return align_prepared_pair(T_ref_cur_guess, reference.t_ns, current.t_ns);
+  return align_frames(reference, current, T_ref_cur_guess);
 }
 
 TrackResult DirectTracker::align_prepared_pair(const SE3& T_ref_cur_guess, TimeNs ref_t_ns,

@@ -30,44 +30,6 @@ cv::Mat distortion_vector(const PinholeCamera& c) {
   return (cv::Mat_<double>(1, 5) << d.k1, d.k2, d.p1, d.p2, d.k3);
 }
 
-YAML::Node require(const YAML::Node& map, const std::string& key, const fs::path& path,
-                   const std::string& prefix) {
-  if (!map.IsMap() || !map[key]) throw InputError(path, prefix + key, "is missing");
-  return map[key];
-}
-
-template <typename T>
-T as(const YAML::Node& node, const fs::path& path, const std::string& field) {
-  try {
-    return node.as<T>();
-  } catch (const YAML::Exception&) {
-    throw InputError(path, field, "has the wrong type");
-  }
-}
-
-PinholeCamera camera_from(const YAML::Node& node, const fs::path& path, const std::string& prefix) {
-  if (!node.IsMap()) throw InputError(path, prefix, "must be a map");
-  const auto num = [&](const char* key) {
-    return as<double>(require(node, key, path, prefix + "."), path, prefix + "." + key);
-  };
-  PinholeIntrinsics k{num("fx"), num("fy"), num("cx"), num("cy"),
-                      as<int>(require(node, "width", path, prefix + "."), path, prefix + ".width"),
-                      as<int>(require(node, "height", path, prefix + "."), path, prefix + ".height")};
-  RadTanDistortion d;
-  if (node["distortion"]) {
-    const auto v = as<std::vector<double>>(node["distortion"], path, prefix + ".distortion");
-    if (v.size() < 4 || v.size() > 5) {
-      throw InputError(path, prefix + ".distortion", "needs 4 or 5 values (k1, k2, p1, p2[, k3])");
-    }
-    d = {v[0], v[1], v[2], v[3], v.size() == 5 ? v[4] : 0.0};
-  }
-  try {
-    return PinholeCamera(k, d);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(path, prefix, e.what());
-  }
-}
-
 }  // namespace
 
 StereoCalibration StereoCalibration::from_euroc_files(const fs::path& cam0_yaml,
@@ -110,11 +72,11 @@ std::string StereoCalibration::describe() const {
 StereoCalibration load_stereo_calibration(const fs::path& path) {
   if (!fs::exists(path)) throw InputError(path.string() + ": no such stereo calibration file");
   const YAML::Node root = io::load_yaml_file(path);
-  const YAML::Node sp = require(root, "stereo_pair", path, "");
+  const YAML::Node sp = io::yaml_require(root, "stereo_pair", path, "");
   StereoCalibration calib;
-  calib.left = camera_from(require(sp, "left", path, "stereo_pair."), path, "stereo_pair.left");
-  calib.right = camera_from(require(sp, "right", path, "stereo_pair."), path, "stereo_pair.right");
-  const auto m = as<std::vector<double>>(require(sp, "T_left_right", path, "stereo_pair."), path,
+  calib.left = io::camera_from_yaml(io::yaml_require(sp, "left", path, "stereo_pair."), path, "stereo_pair.left");
+  calib.right = io::camera_from_yaml(io::yaml_require(sp, "right", path, "stereo_pair."), path, "stereo_pair.right");
+  const auto m = io::yaml_as<std::vector<double>>(io::yaml_require(sp, "T_left_right", path, "stereo_pair."), path,
                                          "stereo_pair.T_left_right");
   if (m.size() != 16) throw InputError(path, "stereo_pair.T_left_right", "needs 16 numbers (4x4, row-major)");
   Eigen::Matrix4d T;

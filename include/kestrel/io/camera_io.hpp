@@ -2,6 +2,8 @@
 // presets of the TUM RGB-D benchmark (fr1, fr2, fr3, ros).
 #pragma once
 
+#include <yaml-cpp/yaml.h>
+
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -26,6 +28,11 @@ struct CameraFile {
 
 /// Loads either format (detected from the keys). Errors name the file and field.
 CameraFile load_camera_file(const std::filesystem::path& path);
+
+/// A camera from a YAML map with fx, fy, cx, cy, width, height and optional distortion
+/// [k1, k2, p1, p2(, k3)]; errors name `field.<key>` in `path`.
+PinholeCamera camera_from_yaml(const YAML::Node& map, const std::filesystem::path& path,
+                               const std::string& field);
 /// A preset name or a file path.
 PinholeCamera load_camera(const std::string& preset_or_path);
 

@@ -4,6 +4,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
+#include <string>
+
+#include "kestrel/core/error.hpp"
 
 namespace kestrel::io {
 
@@ -11,5 +14,23 @@ namespace kestrel::io {
 /// "%YAML:1.0" directive that yaml-cpp rejects; it is skipped, keeping line numbers right.
 /// Throws InputError "FILE:LINE: invalid YAML: ..." or "FILE: cannot open".
 YAML::Node load_yaml_file(const std::filesystem::path& path);
+
+/// map[key]; throws InputError "<path>: field '<prefix><key>' is missing" if absent (or if
+/// `map` is not a map).
+inline YAML::Node yaml_require(const YAML::Node& map, const std::string& key,
+                               const std::filesystem::path& path, const std::string& prefix) {
+  if (!map.IsMap() || !map[key]) throw InputError(path, prefix + key, "is missing");
+  return map[key];
+}
+
+/// node.as<T>(); a conversion failure is an InputError naming `field`.
+template <typename T>
+T yaml_as(const YAML::Node& node, const std::filesystem::path& path, const std::string& field) {
+  try {
+    return node.as<T>();
+  } catch (const YAML::Exception&) {
+    throw InputError(path, field, "has the wrong type");
+  }
+}
 
 }  // namespace kestrel::io

@@ -137,6 +137,10 @@ class DirectTracker {
 
  private:
   TrackResult track_prepared(TimeNs t_ns, TimeNs depth_t_ns);
+  // align_pair for either input kind (defined and instantiated in direct_tracker.cpp).
+  template <typename Frame>
+  TrackResult align_frames(const Frame& reference, const Frame& current,
+                           const SE3& T_ref_cur_guess);
   TrackResult align_prepared_pair(const SE3& T_ref_cur_guess, TimeNs ref_t_ns, TimeNs t_ns);
 
   PinholeCamera camera_;  // undistorted
