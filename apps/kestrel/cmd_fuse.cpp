@@ -221,6 +221,9 @@ struct FuseEvalArgs {
   double init_sigma_accel_bias = 0.2;
   bool skip_sim = false;
   bool static_bias_init = false;
+  bool vo_keyframes = false;
+  double imu_noise_scale = 1.0;
+  double imu_walk_scale = 1.0;
 };
 
 void run_fuse_eval(const FuseEvalArgs& a) {
@@ -238,6 +241,9 @@ void run_fuse_eval(const FuseEvalArgs& a) {
   fusion::EurocExperimentOptions eo;
   eo.seed = a.seed;
   eo.static_gyro_bias_init = a.static_bias_init;
+  eo.vo_keyframes = a.vo_keyframes;
+  eo.imu_noise_scale = a.imu_noise_scale;
+  eo.imu_walk_scale = a.imu_walk_scale;
   std::cout << "# kestrel fuse-eval (seed " << a.seed << ")\n";
   if (!a.skip_real) {
     std::cout << fusion::format_result(
@@ -322,6 +328,15 @@ void add_fuse_eval_command(CLI::App& app) {
   cmd->add_flag("--static-bias-init", a->static_bias_init,
                 "start the real-data runs with the gyro bias from the still IMU samples before "
                 "the first pose (prior sigma 0.01 rad/s) instead of zero");
+  cmd->add_flag("--vo-keyframes", a->vo_keyframes,
+                "relative poses against a keyframe (switched after 5 deg, 0.15 m or 20 frames, "
+                "as keyframe odometry reports them) instead of frame to frame");
+  cmd->add_option("--imu-noise-scale", a->imu_noise_scale,
+                 "multiply the IMU white-noise densities of imu0/sensor.yaml")
+      ->capture_default_str();
+  cmd->add_option("--imu-walk-scale", a->imu_walk_scale,
+                 "multiply the IMU bias random walks of imu0/sensor.yaml")
+      ->capture_default_str();
   cmd->callback([a] { run_fuse_eval(*a); });
 }
 

@@ -55,6 +55,10 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
                                            const EurocExperimentOptions& opt) {
   if (imu.size() < 2 || gt.size() < 3) throw InputError(name + ": not enough IMU or ground truth");
   fusion.reorder_window_s = 0.0;
+  fusion.noise.gyro_noise *= opt.imu_noise_scale;
+  fusion.noise.accel_noise *= opt.imu_noise_scale;
+  fusion.noise.gyro_walk *= opt.imu_walk_scale;
+  fusion.noise.accel_walk *= opt.imu_walk_scale;
   std::map<TimeNs, std::size_t> index;
   for (std::size_t i = 0; i < gt.size(); ++i) index.emplace(gt[i].t_ns, i);
 
@@ -67,27 +71,63 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   }
   if (frames.size() < 3) throw InputError(name + ": ground truth and IMU hardly overlap");
 
-  // Noisy camera relative poses, T_meas = exp(-xi) T_true, xi ~ N(0, Sigma).
+  // Noisy camera relative poses, T_meas = exp(-xi) T_true, xi ~ N(0, Sigma), one draw per
+  // frame (the same draws with and without the gap).
   std::mt19937_64 rng(opt.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double sr = opt.vo_sigma_rot_deg / kRadToDeg;
   Vector6d sigma;
   sigma << Vector3d::Constant(opt.vo_sigma_p_m), Vector3d::Constant(sr);
   const Matrix6d cov = sigma.array().square().matrix().asDiagonal();
-  const SE3& T_bc = fusion.T_body_cam;
-  std::vector<RelativePoseMeasurement> meas;
-  for (std::size_t k = 1; k < frames.size(); ++k) {
-    const SE3 T_w_c0 = gt[frames[k - 1]].T_world_body * T_bc;
-    const SE3 T_w_c1 = gt[frames[k]].T_world_body * T_bc;
-    Vector6d xi;
+  std::vector<Vector6d> noise(frames.size());
+  for (auto& xi : noise) {
     for (int j = 0; j < 6; ++j) xi(j) = sigma(j) * normal(rng);
-    RelativePoseMeasurement m;
-    m.t_ref_ns = gt[frames[k - 1]].t_ns;
-    m.t_ns = gt[frames[k]].t_ns;
-    m.T_ref_cur = SE3::exp(-xi) * (T_w_c0.inverse() * T_w_c1);
-    m.covariance = cov;
-    meas.push_back(m);
   }
+  const SE3& T_bc = fusion.T_body_cam;
+  const double max_rot_rad = opt.vo_keyframe_max_rot_deg / kRadToDeg;
+  // The odometry's measurements, skipping frames in [gap_lo, gap_hi) when given: after a gap
+  // the odometry restarts, its first frame only becomes the reference (t_ref = t, as the
+  // pipeline reports a first frame).
+  auto make_measurements = [&](TimeNs gap_lo, TimeNs gap_hi) {
+    std::vector<RelativePoseMeasurement> out;
+    std::size_t ref = 0;
+    int frames_on_ref = 0;
+    bool restart = false;
+    for (std::size_t k = 1; k < frames.size(); ++k) {
+      const TimeNs t = gt[frames[k]].t_ns;
+      if (t > gap_lo && t <= gap_hi) {
+        restart = true;
+        continue;
+      }
+      RelativePoseMeasurement m;
+      m.t_ns = t;
+      m.covariance = cov;
+      if (restart) {
+        m.t_ref_ns = t;
+        m.T_ref_cur = SE3();
+        out.push_back(m);
+        ref = k;
+        frames_on_ref = 0;
+        restart = false;
+        continue;
+      }
+      const std::size_t r = opt.vo_keyframes ? ref : k - 1;
+      const SE3 T_true = (gt[frames[r]].T_world_body * T_bc).inverse() * (gt[frames[k]].T_world_body * T_bc);
+      m.t_ref_ns = gt[frames[r]].t_ns;
+      m.T_ref_cur = SE3::exp(-noise[k]) * T_true;
+      ++frames_on_ref;
+      m.starts_new_reference = !opt.vo_keyframes || T_true.so3().log().norm() > max_rot_rad ||
+                               T_true.translation().norm() > opt.vo_keyframe_max_trans_m ||
+                               frames_on_ref >= opt.vo_keyframe_max_frames;
+      if (m.starts_new_reference) {
+        ref = k;
+        frames_on_ref = 0;
+      }
+      out.push_back(m);
+    }
+    return out;
+  };
+  const std::vector<RelativePoseMeasurement> meas = make_measurements(0, 0);
 
   const GroundTruthSample& g0 = gt[frames[0]];
   NominalState x0;
@@ -115,10 +155,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
     const TimeNs gap_lo = g0.t_ns + s_to_ns(opt.gap_start_s);
     const TimeNs gap_hi = gap_lo + s_to_ns(opt.gap_s);
     for (const auto& s : imu) engine.add_imu(s);
-    for (const auto& m : meas) {
-      if (with_gap && m.t_ns > gap_lo && m.t_ns <= gap_hi) continue;
-      engine.add_relative_pose(m);
-    }
+    for (const auto& m : with_gap ? make_measurements(gap_lo, gap_hi) : meas) engine.add_relative_pose(m);
     auto out = engine.flush(imu_rate);
     if (counters) *counters = engine.counters();
     return out;
@@ -131,7 +168,10 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
 
   // 1. No gap: errors at the odometry time stamps, fused and chained.
   const auto fused = run_filter(false, false, &r.counters);
-  SE3 chain_w_c = g0.T_world_body * T_bc;
+  // Chaining: the camera pose is the chained reference times the latest relative pose; the
+  // chain moves to a frame when it becomes the reference.
+  SE3 chain_ref_w_c = g0.T_world_body * T_bc;
+  SE3 chain_w_c = chain_ref_w_c;
   double se_f = 0.0, se_c = 0.0, re_f = 0.0, re_c = 0.0;
   std::size_t n = 0;
   std::size_t mi = 0;
@@ -139,7 +179,10 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   const TimeNs t_check = g0.t_ns + s_to_ns(opt.bias_check_after_s);
   for (const FusedState& f : fused) {
     if (!f.at_odometry) continue;
-    while (mi < meas.size() && meas[mi].t_ns <= f.t_ns) chain_w_c = chain_w_c * meas[mi++].T_ref_cur;
+    while (mi < meas.size() && meas[mi].t_ns <= f.t_ns) {
+      chain_w_c = chain_ref_w_c * meas[mi].T_ref_cur;
+      if (meas[mi++].starts_new_reference) chain_ref_w_c = chain_w_c;
+    }
     const GroundTruthSample* g = gt_at(index, gt, f.t_ns);
     if (g == nullptr) continue;
     const SE3 T_chain = chain_w_c * T_bc.inverse();
@@ -195,7 +238,7 @@ EurocExperimentResult run_v1_02(const fs::path& seq, const FusionOptions& fusion
   const auto imu = read_imu(mav0 / "imu0" / "data.csv");
   std::vector<GroundTruthSample> gt;
   for (const auto& s : io::read_euroc_state_groundtruth(mav0 / "gt0" / "data.csv")) {
-    gt.push_back({s.t_ns, s.T_world_body, s.v_world, s.gyro_bias, true});
+    gt.push_back({s.t_ns, s.T_world_body, s.v_world, s.gyro_bias, s.accel_bias, true});
   }
   auto r = run_euroc_experiment("V1_02_medium (gt0 state, body relative poses)", imu, gt, fusion, options);
   r.bias_reference = "gt0 gyro bias (EuRoC state ground truth)";

@@ -340,7 +340,8 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
   // The measurement must start at the cloned frame (0.5 ms tolerance); otherwise it only
   // starts a new reference (first frame, or a frame whose predecessor was never seen).
   constexpr TimeNs kTolerance = 500'000;
-  if (std::llabs(m.t_ref_ns - ekf_.state().clone_t_ns) > kTolerance) {
+  const bool has_reference = std::llabs(m.t_ref_ns - ekf_.state().clone_t_ns) <= kTolerance;
+  if (!has_reference) {
     ++counters_.updates_no_reference;
   } else {
     // Odometry camera motion -> body motion: T_b1_b2 = T_BC T_c1_c2 T_BC^-1; a left
@@ -367,7 +368,10 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
         break;
     }
   }
-  ekf_.clone();  // re-cloning after each update (thesis, after eq. 4.8)
+  // Re-cloning after each update (thesis, after eq. 4.8) when this frame becomes the
+  // reference; a keyframe that is kept keeps its clone. Without a reference the frame is
+  // cloned anyway: a measurement starting there is the only one that can follow.
+  if (m.starts_new_reference || !has_reference) ekf_.clone();
   emit(true, out);
 }
 

@@ -248,6 +248,35 @@ TEST(FusionBehaviour, OdometryDropoutFlagsAndGrowsCovarianceThenRecovers) {
   EXPECT_EQ(e.counters().updates_no_reference, 2u);
 }
 
+// Keyframe odometry: measurements relative to a kept keyframe update against the same clone;
+// the filter re-clones only when a frame becomes the new reference.
+TEST(FusionBehaviour, KeyframeMeasurementsKeepTheCloneUntilTheReferenceChanges) {
+  Scenario sc = still_scenario(6.0);
+  constexpr std::size_t kPerKeyframe = 5;
+  TimeNs keyframe_t = 0;
+  TimeNs last_keyframe_t = 0;
+  for (std::size_t i = 0; i < sc.vo.size(); ++i) {
+    sc.vo[i].t_ref_ns = keyframe_t;
+    sc.vo[i].starts_new_reference = (i + 1) % kPerKeyframe == 0;
+    if (sc.vo[i].starts_new_reference) {
+      keyframe_t = sc.vo[i].t_ns;
+      last_keyframe_t = keyframe_t;
+    }
+  }
+  FusionEngine e{FusionOptions{}};
+  for (const auto& s : sc.imu) e.add_imu(s);
+  for (const auto& m : sc.vo) e.add_relative_pose(m);
+  (void)e.flush(false);
+  const FusionCounters& c = e.counters();
+  // Before the static initialisation (1 s) measurements are dropped; the first keyframe after
+  // it was never cloned, so measurements wait for the next keyframe switch (at most 5).
+  EXPECT_LE(c.updates_no_reference, kPerKeyframe);
+  EXPECT_GE(c.updates_accepted, sc.vo.size() - c.measurements_before_init - kPerKeyframe);
+  EXPECT_EQ(c.updates_gated, 0u);
+  EXPECT_EQ(e.filter().state().clone_t_ns, last_keyframe_t);
+  EXPECT_LT(e.filter().state().p_world.norm(), 0.01);
+}
+
 TEST(FusionBehaviour, ChiSquareGateRejectsAnOutlier) {
   Scenario sc = still_scenario(4.0);
   sc.vo[50].T_ref_cur = SE3(SO3(), Vector3d(0.5, 0, 0));  // a 0.5 m jump, sigma 1 cm

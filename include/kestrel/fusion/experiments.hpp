@@ -20,6 +20,18 @@ struct EurocExperimentOptions {
   double gap_start_s = 15.0;         ///< start of the measurement gap, after the first pose
   double gap_s = 2.0;
   std::uint64_t seed = 1;
+  /// Reference of the relative poses. Off (the default): frame to frame, each measurement
+  /// from the previous frame. On: keyframe odometry as DirectTracker reports it, each pose
+  /// relative to the current keyframe, which is switched (the frame becomes the keyframe)
+  /// when the true motion from it exceeds the rotation or translation below, or after
+  /// vo_keyframe_max_frames frames. The same noise per measurement either way.
+  bool vo_keyframes = false;
+  double vo_keyframe_max_rot_deg = 5.0;    ///< DirectTracker's default keyframe rotation
+  double vo_keyframe_max_trans_m = 0.15;   ///< 0.05 x a ~3 m median depth (the tracker's rule)
+  int vo_keyframe_max_frames = 20;
+  /// Multiplies the white-noise densities of imu0/sensor.yaml (gyro and accelerometer).
+  double imu_noise_scale = 1.0;
+  double imu_walk_scale = 1.0;
   /// Gyro bias from the still IMU samples before the first pose (static start) when they
   /// pass the still test, with this prior sigma; otherwise zero bias, prior from FusionOptions.
   bool static_gyro_bias_init = false;
@@ -32,6 +44,7 @@ struct GroundTruthSample {
   SE3 T_world_body;
   Eigen::Vector3d v_world = Eigen::Vector3d::Zero();
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
   bool has_bias = false;
 };
 

@@ -85,6 +85,11 @@ struct RelativePoseMeasurement {
   TimeNs t_ns = 0;
   SE3 T_ref_cur;          ///< camera frame at t_ns in the camera frame at t_ref_ns
   Matrix6d covariance;    ///< left perturbation [v, w] in the reference frame (TrackResult's)
+  /// The frame at t_ns becomes the odometry's reference: later measurements start there, so
+  /// the filter re-clones after this update (frame-to-frame odometry: always true). False
+  /// for keyframe odometry while the keyframe is kept: the clone of t_ref_ns stays and the
+  /// next measurement is again relative to it (the thesis' clone of the keyframe, 4.6).
+  bool starts_new_reference = true;
 };
 
 struct FusionCounters {
