@@ -93,6 +93,10 @@ void print_run(const sensor::StereoExperimentRun& run) {
             << s.bad_threshold_px << " px) " << 100.0 * run.bad_rate()
             << " % of filled (" << 100.0 * s.bad_rate() << " % counting missing as bad); matcher: "
             << run.stats.describe() << "\n";
+  const auto& l = run.score_lit;
+  std::cout << "  over the " << l.scored << " covisible pixels the projector lights: fill "
+            << 100.0 * l.fill_rate() << " %, RMS error " << l.rms_error_px << " px, bad "
+            << 100.0 * l.bad_rate_of_filled() << " % of filled\n";
 }
 
 void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
@@ -116,19 +120,22 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   const double max_d = args.options.matcher.max_disparity;
   write_image(args.out / "pattern.png", r.pattern);
   write_image(args.out / "covisible.png", r.covisible);
+  write_image(args.out / "projector_lit.png", r.lit);
   io::write_pfm(args.out / "truth_disparity.pfm", r.passive.frame.disparity_px, true);
   write_image(args.out / "truth_disparity.png",
               sensor::colorize_disparity(r.passive.frame.disparity_px, max_d));
   save_run(args.out, r.passive, max_d);
   save_run(args.out, r.active, max_d);
-  std::cout << "wrote " << args.out.string() << "/{pattern,covisible,truth_disparity,"
+  std::cout << "wrote " << args.out.string() << "/{pattern,covisible,projector_lit,truth_disparity,"
             << r.passive.name << "_*," << r.active.name << "_*}\n";
   print_run(r.passive);
   print_run(r.active);
   std::cout << "passive_fill=" << r.passive.score.fill_rate()
             << " passive_bad=" << r.passive.bad_rate()
             << " active_fill=" << r.active.score.fill_rate()
-            << " active_bad=" << r.active.bad_rate() << "\n";
+            << " active_bad=" << r.active.bad_rate()
+            << " active_lit_fill=" << r.active.score_lit.fill_rate()
+            << " active_lit_bad=" << r.active.score_lit.bad_rate_of_filled() << "\n";
 }
 
 }  // namespace
@@ -148,6 +155,9 @@ void add_stereo_experiment_command(CLI::App& app) {
   cmd->add_option("--mode", args->mode, "active lighting: dark (pattern only) or ambient (+ pattern)")
       ->capture_default_str();
   cmd->add_option("--lines", o.pattern.lines, "pattern line count")->capture_default_str();
+  cmd->add_option("--projector-fov", o.projector.horizontal_fov_deg,
+                  "projector horizontal field of view [deg]")
+      ->capture_default_str();
   cmd->add_option("--noise", o.intensity_sigma, "camera intensity noise sigma [grey levels]")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "write into a folder not claimed by this command");

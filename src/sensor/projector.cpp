@@ -236,13 +236,34 @@ namespace {
 
 StereoExperimentRun match_and_score(std::string name, sim::StereoFrame frame,
                                     BlockMatcher& matcher, const cv::Mat& covisible,
-                                    double bad_threshold_px) {
+                                    const cv::Mat& lit, double bad_threshold_px) {
   StereoExperimentRun run;
   run.name = std::move(name);
   run.frame = std::move(frame);
   run.stats = matcher.match(run.frame.left.color_bgr, run.frame.right.color_bgr, run.disparity_px);
   run.score = score_disparity(run.disparity_px, run.frame.disparity_px, bad_threshold_px, covisible);
+  run.score_lit = score_disparity(run.disparity_px, run.frame.disparity_px, bad_threshold_px, lit);
   return run;
+}
+
+// Covisible left pixels the projector lights: a noise-free dark-room render of an all-white
+// pattern is non-zero exactly where the light reaches (its image, facing it, no shadow).
+cv::Mat projector_lit_mask(const sim::Scene& scene, const RectifiedStereo& rig,
+                           const SE3& T_world_left, const ProjectorOptions& projector,
+                           const cv::Mat& covisible) {
+  const cv::Mat white(projector.height, projector.width, CV_8UC3, cv::Scalar::all(255));
+  ProjectorOptions sharp = projector;
+  sharp.blur_sigma_px = 0.0;
+  sim::RenderOptions clean;
+  clean.noise = {};
+  clean.noise.intensity_sigma = 0.0;
+  const sim::StereoFrame f = render_active_stereo(scene, rig, T_world_left, white,
+                                                  ProjectorMode::kDarkRoom, sharp, clean, 1);
+  cv::Mat gray;
+  cv::cvtColor(f.left.color_bgr, gray, cv::COLOR_BGR2GRAY);
+  cv::Mat lit = gray > 0;
+  cv::bitwise_and(lit, covisible, lit);
+  return lit;
 }
 
 }  // namespace
@@ -279,11 +300,12 @@ StereoExperimentResult run_stereo_experiment(const StereoExperimentOptions& opti
                                                  options.active_mode, options.projector, render,
                                                  options.seed * 2 + 2);
   result.covisible = covisible_mask(passive);
+  result.lit = projector_lit_mask(scene, rig, T_world_left, options.projector, result.covisible);
   BlockMatcher matcher(options.matcher, rig);
   result.passive = match_and_score("passive", std::move(passive), matcher, result.covisible,
-                                   options.bad_threshold_px);
+                                   result.lit, options.bad_threshold_px);
   result.active = match_and_score(std::string("active-") + projector_mode_name(options.active_mode),
-                                  std::move(active), matcher, result.covisible,
+                                  std::move(active), matcher, result.covisible, result.lit,
                                   options.bad_threshold_px);
   return result;
 }

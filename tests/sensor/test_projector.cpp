@@ -196,5 +196,32 @@ TEST(StereoExperiment, ActiveFillsFarMoreThanPassive) {
   EXPECT_LT(r.active.bad_rate(), 0.05) << r.active.score.describe();
 }
 
+// The lit mask: covisible pixels the projector reaches. A 100 deg projector covers the
+// cameras' view (all but its shadow); a 30 deg one a central part, whose pixels the
+// pattern fills more densely than the whole view.
+TEST(StereoExperiment, LitMaskIsTheCovisiblePartInsideTheProjectorField) {
+  StereoExperimentOptions o;
+  o.width = 200;
+  o.height = 150;
+  o.f_px = 130.0;
+  o.matcher.max_disparity = 32;
+  o.matcher.block_size = 7;
+  const StereoExperimentResult wide = run_stereo_experiment(o);
+  o.projector.horizontal_fov_deg = 30.0;
+  const StereoExperimentResult narrow = run_stereo_experiment(o);
+  for (const auto* r : {&wide, &narrow}) {
+    cv::Mat outside;
+    cv::bitwise_and(r->lit, ~r->covisible, outside);
+    EXPECT_EQ(cv::countNonZero(outside), 0);
+  }
+  const int covisible = cv::countNonZero(wide.covisible);
+  EXPECT_GT(cv::countNonZero(wide.lit), 0.9 * covisible);
+  const int narrow_lit = cv::countNonZero(narrow.lit);
+  EXPECT_GT(narrow_lit, 0.05 * covisible);
+  EXPECT_LT(narrow_lit, 0.5 * covisible);
+  EXPECT_EQ(narrow.active.score_lit.scored, static_cast<std::size_t>(narrow_lit));
+  EXPECT_GT(narrow.active.score_lit.fill_rate(), narrow.active.score.fill_rate() + 0.2);
+}
+
 }  // namespace
 }  // namespace kestrel::sensor

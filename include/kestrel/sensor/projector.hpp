@@ -144,6 +144,10 @@ struct StereoExperimentRun {
   cv::Mat disparity_px;      ///< the matcher's left disparity (kNoDisparity where none)
   MatchStats stats;
   DisparityScore score;      ///< over the covisible pixels
+  /// Over the covisible pixels the projector lights (inside its image, facing it, not in its
+  /// shadow): where an active sensor can give depth at all (thesis 5: the projector's lens
+  /// limits the sensor's field of view).
+  DisparityScore score_lit;
   /// Share of the filled covisible pixels off by more than the threshold.
   [[nodiscard]] double bad_rate() const { return score.bad_rate_of_filled(); }
 };
@@ -153,6 +157,7 @@ struct StereoExperimentResult {
   StereoExperimentRun active;
   cv::Mat pattern;    ///< the projected image (CV_8UC3)
   cv::Mat covisible;  ///< CV_8U mask of the scored pixels
+  cv::Mat lit;        ///< CV_8U mask of the covisible pixels the projector lights
 };
 
 /// Runs the experiment. Throws std::invalid_argument for invalid options.
