@@ -7,8 +7,8 @@
 #include <cmath>
 #include <ctime>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
+#include <exception>
 #include <functional>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "kestrel/core/error.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
@@ -98,15 +99,17 @@ void print_time(const char* name, std::pair<double, double> t) {
   std::printf("  %-22s %8.2f ms/pair wall, %8.2f ms/pair thread CPU\n", name, t.first, t.second);
 }
 
-}  // namespace
+void print_usage(std::FILE* to) {
+  std::fprintf(to,
+               "usage: kestrel_bench_stereo [DATA_DIR] [--quick]\n"
+               "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy} and\n"
+               "            euroc/V1_01_easy_part1 (default: %s)\n"
+               "  --quick   5 EuRoC pairs and 5 timing repeats instead of all pairs and 30\n"
+               "  --help    this text\n",
+               KESTREL_DEFAULT_DATA_DIR);
+}
 
-int main(int argc, char** argv) {
-  fs::path data = KESTREL_DEFAULT_DATA_DIR;
-  bool quick = false;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--quick") == 0) quick = true;
-    else data = argv[i];
-  }
+int run(const fs::path& data, bool quick) {
   cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
   using kestrel::sensor::MatchingCost;
 
@@ -139,12 +142,15 @@ int main(int argc, char** argv) {
                    }});
 
   // --- Middlebury: bad pixels (> 1 px or missing) over pixels with known truth.
-  std::printf("Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity) / fill %%\n", kBlock);
-  std::printf("%-22s %16s %16s %16s\n", "matcher", "tsukuba", "venus", "teddy");
+  if (!fs::is_directory(data)) {
+    throw kestrel::InputError("DATA_DIR '" + data.string() + "' is not a folder");
+  }
   std::vector<kestrel::sensor::MiddleburyPair> pairs;
   for (const char* name : {"tsukuba", "venus", "teddy"}) {
     pairs.push_back(kestrel::sensor::load_middlebury_pair(data / "middlebury" / name));
   }
+  std::printf("Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity) / fill %%\n", kBlock);
+  std::printf("%-22s %16s %16s %16s\n", "matcher", "tsukuba", "venus", "teddy");
   for (const auto& peer : peers) {
     std::printf("%-22s", peer.name.c_str());
     for (const auto& p : pairs) {
@@ -207,4 +213,41 @@ int main(int argc, char** argv) {
     std::printf("  %-22s %6.1f %%\n", peer.name.c_str(), 100.0 * filled / total);
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fs::path data = KESTREL_DEFAULT_DATA_DIR;
+  bool quick = false, have_data = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--quick") {
+      quick = true;
+    } else if (arg == "--help" || arg == "-h") {
+      print_usage(stdout);
+      return 0;
+    } else if (arg.starts_with("-")) {
+      std::fprintf(stderr, "kestrel_bench_stereo: error: unknown option '%s'\n", arg.c_str());
+      print_usage(stderr);
+      return 2;
+    } else if (have_data) {
+      std::fprintf(stderr, "kestrel_bench_stereo: error: more than one DATA_DIR ('%s', '%s')\n",
+                   data.string().c_str(), arg.c_str());
+      print_usage(stderr);
+      return 2;
+    } else {
+      data = arg;
+      have_data = true;
+    }
+  }
+  try {
+    return run(data, quick);
+  } catch (const kestrel::InputError& e) {
+    std::fprintf(stderr, "kestrel_bench_stereo: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kestrel_bench_stereo: error: %s\n", e.what());
+    return 1;
+  }
 }
