@@ -1,0 +1,61 @@
+// The dataset and output helpers of the ROS adapter: thin wrappers over io/ (C++20) so that
+// the C++17 ROS code reads TUM folders, associates time stamps and writes trajectories with
+// exactly the calls `kestrel odometry` makes.
+#include "kestrel/ros/dataset_bridge.hpp"
+
+#include <filesystem>
+
+#include "kestrel/io/output_guard.hpp"
+#include "kestrel/io/trajectory_io.hpp"
+#include "kestrel/io/tum_rgbd.hpp"
+
+namespace kestrel::ros {
+
+std::vector<std::pair<std::size_t, std::size_t>> associate_stamps(
+    const std::vector<std::int64_t>& a, const std::vector<std::int64_t>& b,
+    std::int64_t max_diff_ns) {
+  return io::associate_by_time(a, b, max_diff_ns);
+}
+
+std::string camera_preset_for_name(const std::string& path) {
+  const std::string name =
+      std::filesystem::absolute(std::filesystem::path(path)).lexically_normal().string();
+  if (name.find("freiburg1") != std::string::npos) return "fr1";
+  if (name.find("freiburg2") != std::string::npos) return "fr2";
+  if (name.find("freiburg3") != std::string::npos) return "fr3";
+  return {};
+}
+
+void check_can_write_output(const std::string& path, const std::string& command, bool force) {
+  io::check_can_write_file(path, command, force);
+}
+
+void write_tum_trajectory(const std::string& path, const std::vector<TrajectoryPose>& poses,
+                          const std::string& command, bool force) {
+  Trajectory trajectory;
+  trajectory.reserve(poses.size());
+  for (const TrajectoryPose& p : poses) {
+    trajectory.push_back({p.t_ns, SE3::from_matrix(p.T_world_cam)});
+  }
+  io::write_tum_trajectory(path, trajectory, command, force);
+}
+
+std::string format_seconds(std::int64_t t_ns) { return io::format_seconds(t_ns); }
+
+struct TumFolder::Impl {
+  explicit Impl(const std::string& folder) : sequence(folder) {}
+  io::TumRgbdSequence sequence;
+};
+
+TumFolder::TumFolder(const std::string& folder) : impl_(std::make_unique<Impl>(folder)) {}
+TumFolder::~TumFolder() = default;
+std::size_t TumFolder::size() const { return impl_->sequence.size(); }
+std::size_t TumFolder::unmatched_rgb() const { return impl_->sequence.unmatched_rgb(); }
+
+TumFrame TumFolder::load(std::size_t i) const {
+  io::RgbdImages images = impl_->sequence.load(i);
+  return TumFrame{images.t_ns, images.depth_t_ns, std::move(images.bgr),
+                  std::move(images.depth_m)};
+}
+
+}  // namespace kestrel::ros
