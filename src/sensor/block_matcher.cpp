@@ -23,10 +23,49 @@
 #include <immintrin.h>
 #endif
 
+// The fast row's per-pixel lambdas must be inlined into their loops (GCC otherwise calls the
+// larger ones, with every captured variable reloaded through the closure).
+#if defined(__GNUC__)
+#define KESTREL_INLINE __attribute__((always_inline))
+#else
+#define KESTREL_INLINE
+#endif
+
 namespace kestrel::sensor {
 namespace {
 
 constexpr std::uint16_t kMaskedCost = 0xFFFF;
+
+// Buffers of uint16 costs read and written 32 bytes at a time start on a cache line: they are
+// allocated kAlignSlack elements longer and used from align64(data()).
+constexpr std::size_t kAlignSlack = 32;
+inline std::uint16_t* align64(std::uint16_t* p) {
+  const auto a = reinterpret_cast<std::uintptr_t>(p);
+  return reinterpret_cast<std::uint16_t*>((a + 63) & ~std::uintptr_t{63});
+}
+// The fast row decides pixel x - kLag while it scans pixel x; its ring of box costs holds the
+// last `lanes` >= 32 pixels (kLag + kFastMaxLrDiff < 32), each slot with kRingGuard masked
+// lanes on either side, so that the left-right diagonal (|j| <= lr_max_diff <=
+// kFastMaxLrDiff) and the fit's neighbours never leave the slots.
+constexpr int kLag = 16;
+constexpr int kFastMaxLrDiff = 8;
+constexpr int kRingGuard = 16;  // 32 bytes: the slots' lanes stay 32-byte aligned
+
+/// What scan_row_fast leaves per pixel for finish_row_fast: one uint16 field array each, all
+/// at constant offsets from one base (kFieldStride apart), so that the scan addresses every
+/// field from one register. Costs are stored TAGGED (see scan_row_fast) and decoded eight
+/// pixels at a time by finish_row_fast.
+enum FastField : int {
+  kFieldCost,      // the winner's cost
+  kFieldMinus,     // the cost at d - 1 (lane best + 1)
+  kFieldPlus,      // the cost at d + 1 (lane best - 1)
+  kFieldDiag,      // the least cost on the right pixel's diagonal within lr_max_diff
+  kFieldSecond,    // the least cost further than 1 lane from the winner (0xFFFF: none)
+  kFieldBest,      // the winner's lane (not tagged)
+  kFieldLowTexture,  // 0xFFFF where the window's texture is below the threshold
+  kFieldCount
+};
+constexpr int kFieldStride = 8192;  // the fast row handles widths up to this
 
 /// box += add - sub over n uint16 lanes.
 inline void slide_u16(std::uint16_t* box, const std::uint16_t* add, const std::uint16_t* sub,
@@ -224,6 +263,22 @@ BlockMatcher::BlockMatcher(BlockMatcherOptions options, std::optional<RectifiedS
   const int n = options_.max_disparity - options_.min_disparity;
   lanes_ = (n + 31) / 32 * 32;  // whole AVX2 registers of uint8 per-pixel costs
   pad_left_ = lanes_ - 1 + options_.min_disparity + radius_;
+  const int block = options_.block_size;
+  texture_min_ = static_cast<std::uint32_t>(std::ceil(options_.texture_threshold * 2.0 * block * block));
+#if defined(__AVX2__)
+  // The fast row tags each box cost with lane / 8 in its low bits (2 bits for 32 lanes, 3 for
+  // 64): the tagged costs must stay below the 0xFFFF of a masked lane.
+  if (lanes_ == 32 || lanes_ == 64) {
+    const int bits = lanes_ == 32 ? 2 : 3;
+    const long max_box = static_cast<long>(block) * block * options_.max_pixel_cost();
+    fast_ = (max_box << bits) + (1L << bits) - 1 < 0xFFFF && options_.lr_max_diff <= kFastMaxLrDiff;
+  }
+#endif
+  // first_mask: 0xFFFF below index lanes; near_mask: 0xFFFF at lanes - 1 .. lanes + 1.
+  const auto L = static_cast<std::size_t>(lanes_);
+  lane_masks_.assign(4 * L, 0);
+  std::fill(lane_masks_.begin(), lane_masks_.begin() + static_cast<std::ptrdiff_t>(L), kMaskedCost);
+  for (std::size_t k = L - 1; k <= L + 1; ++k) lane_masks_[2 * L + k] = kMaskedCost;
 }
 
 void BlockMatcher::prepare(int width, int height) {
@@ -242,12 +297,15 @@ void BlockMatcher::prepare(int width, int height) {
   census_l_.assign(census ? cols * static_cast<std::size_t>(height) : 0, 0);
   census_r_.assign(census ? static_cast<std::size_t>(row_stride_r_) * static_cast<std::size_t>(height) : 0, 0);
   cost_ring_.assign(census ? static_cast<std::size_t>(block) * cols * lanes : 0, 0);
-  column_sums_.assign(cols * lanes, 0);
+  column_sums_.assign(cols * lanes + kAlignSlack, 0);
   texture_columns_.assign(cols, 0);
   volume_.assign(static_cast<std::size_t>(width) * lanes, 0);
-  right_min_.assign(static_cast<std::size_t>(width) + lanes, 0);
+  right_min_.assign(static_cast<std::size_t>(width) + lanes + 1, 0);  // + 1: 32-bit gathers
   row_disp_.assign(static_cast<std::size_t>(width), -1);
   row_state_.assign(static_cast<std::size_t>(width), 0);
+  gradient_.assign(texture_min_ > 0 ? cols * static_cast<std::size_t>(height) : 0, 0);
+  volume_ring_.assign(fast_ ? lanes * (lanes + 2 * kRingGuard) + kAlignSlack : 0, kMaskedCost);
+  row_fields_.assign(fast_ && width <= kFieldStride ? std::size_t{kFieldCount} * kFieldStride : 0, 0);
 }
 
 namespace {
@@ -266,6 +324,17 @@ cv::Mat to_gray8(const cv::Mat& image, cv::Mat& buffer, const char* which) {
   throw InputError(std::string("stereo: the ") + which +
                    " image must be 8-bit grey, 8-bit BGR or float grey, got OpenCV type " +
                    std::to_string(image.type()));
+}
+
+}  // namespace
+
+namespace {
+
+/// |I(y, x+1) - I(y, x-1)| for padded column c (x = c - r, clamped to the image).
+inline std::uint32_t gradient_at(const std::uint8_t* row, int c, int r, int w) {
+  const int x = clampi(c - r, 0, w - 1);
+  return static_cast<std::uint32_t>(
+      std::abs(int{row[std::min(x + 1, w - 1)]} - int{row[std::max(x - 1, 0)]}));
 }
 
 }  // namespace
@@ -334,36 +403,40 @@ void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
       census_row(r, y, census_r_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_), row_stride_r_, pad_left_);
     }
   }
-  // Texture: |I(x+1) - I(x-1)| of the raw left image (a header, no copy).
-  texture_source_ = l;
+  // Texture: |I(x+1) - I(x-1)| of the raw left image per padded column (x = c - r, clamped).
+  if (texture_min_ > 0) {
+    const int cols = row_stride_l_;
+    for (int y = 0; y < h; ++y) {
+      const std::uint8_t* row = l.ptr<std::uint8_t>(y);
+      std::uint8_t* g = gradient_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
+      // Columns of pixels 1..w-2 need no clamps (a loop that vectorises); the rest do.
+      const int lo = std::min(rad + 1, cols), hi = std::max(lo, rad + w - 1);
+      for (int c = 0; c < lo; ++c) g[c] = static_cast<std::uint8_t>(gradient_at(row, c, rad, w));
+      for (int c = lo; c < hi; ++c) {
+        g[c] = static_cast<std::uint8_t>(std::abs(int{row[c - rad + 1]} - int{row[c - rad - 1]}));
+      }
+      for (int c = hi; c < cols; ++c) g[c] = static_cast<std::uint8_t>(gradient_at(row, c, rad, w));
+    }
+  }
 }
-
-namespace {
-
-/// |I(y, x+1) - I(y, x-1)| for padded column c (x = c - r, clamped to the image).
-inline std::uint32_t gradient_at(const std::uint8_t* row, int c, int r, int w) {
-  const int x = clampi(c - r, 0, w - 1);
-  return static_cast<std::uint32_t>(
-      std::abs(int{row[std::min(x + 1, w - 1)]} - int{row[std::max(x - 1, 0)]}));
-}
-
-}  // namespace
 
 void BlockMatcher::init_column_sums() {
-  const int r = radius_, h = height_, w = width_;
+  const int r = radius_, h = height_;
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
   std::fill(column_sums_.begin(), column_sums_.end(), std::uint16_t{0});
   std::fill(texture_columns_.begin(), texture_columns_.end(), 0U);
   for (int k = -r; k <= r; ++k) {
     const int y = clampi(k, 0, h - 1);
-    const std::uint8_t* grow = texture_source_.ptr<std::uint8_t>(y);
-    for (int c = 0; c < cols; ++c) texture_columns_[static_cast<std::size_t>(c)] += gradient_at(grow, c, r, w);
+    if (texture_min_ > 0) {
+      const std::uint8_t* g = gradient_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
+      for (int c = 0; c < cols; ++c) texture_columns_[static_cast<std::size_t>(c)] += g[c];
+    }
     if (options_.cost == MatchingCost::kSad) {
       const std::uint8_t* lrow = left_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
       const std::uint8_t* rrow = right_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_);
       for (int c = 0; c < cols; ++c) {
-        std::uint16_t* cs = column_sums_.data() + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
+        std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         for (int i = 0; i < lanes; ++i) {
           cs[i] = static_cast<std::uint16_t>(cs[i] + std::abs(int{lrow[c]} - int{rrow[c + i]}));
         }
@@ -374,7 +447,7 @@ void BlockMatcher::init_column_sums() {
       const int slot = ((k % block) + block) % block;
       std::uint8_t* ring = cost_ring_.data() + static_cast<std::size_t>(slot) * static_cast<std::size_t>(cols) * static_cast<std::size_t>(lanes);
       for (int c = 0; c < cols; ++c) {
-        std::uint16_t* cs = column_sums_.data() + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
+        std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         std::uint8_t* rc = ring + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         for (int i = 0; i < lanes; ++i) {
           const auto pc = static_cast<std::uint8_t>(std::popcount(lrow[c] ^ rrow[c + i]));
@@ -388,16 +461,17 @@ void BlockMatcher::init_column_sums() {
 
 void BlockMatcher::advance_column_sums(int y) {
   // The window of row y covers rows y-r..y+r: row y+r comes in, row y-r-1 goes out.
-  const int r = radius_, h = height_, w = width_;
+  const int r = radius_, h = height_;
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
   const int k_new = y + r;
   const int y_new = std::min(k_new, h - 1);
   const int y_old = std::max(y - r - 1, 0);
-  const std::uint8_t* g_new = texture_source_.ptr<std::uint8_t>(y_new);
-  const std::uint8_t* g_old = texture_source_.ptr<std::uint8_t>(y_old);
-  for (int c = 0; c < cols; ++c) {
-    texture_columns_[static_cast<std::size_t>(c)] += gradient_at(g_new, c, r, w) - gradient_at(g_old, c, r, w);
+  if (texture_min_ > 0) {
+    const std::uint8_t* g_new = gradient_.data() + static_cast<std::size_t>(y_new) * static_cast<std::size_t>(cols);
+    const std::uint8_t* g_old = gradient_.data() + static_cast<std::size_t>(y_old) * static_cast<std::size_t>(cols);
+    std::uint32_t* tc = texture_columns_.data();
+    for (int c = 0; c < cols; ++c) tc[c] += static_cast<std::uint32_t>(g_new[c]) - g_old[c];
   }
   const auto lane_stride = static_cast<std::size_t>(lanes);
   // SAD columns are slid by the row scan itself, just before it uses them.
@@ -407,7 +481,7 @@ void BlockMatcher::advance_column_sums(int y) {
     const int slot = k_new % block;  // the slot of row y-r-1 (same residue)
     std::uint8_t* ring = cost_ring_.data() + static_cast<std::size_t>(slot) * static_cast<std::size_t>(cols) * lane_stride;
     for (int c = 0; c < cols; ++c) {
-      std::uint16_t* cs = column_sums_.data() + static_cast<std::size_t>(c) * lane_stride;
+      std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * lane_stride;
       std::uint8_t* rc = ring + static_cast<std::size_t>(c) * lane_stride;
       const std::uint64_t lc = lrow[c];
       for (int i = 0; i < lanes; ++i) {
@@ -643,19 +717,341 @@ void scan_row_avx2(const RowScan& s) {
   }
   // Columns past the last window (x + 2r > width - 1 + 2r never happens): all were slid.
 }
+
+
+struct FastRow {
+  std::uint16_t* ring;              // lanes slots: tagged box costs of pixel x at x % lanes
+  std::uint16_t* fields;            // kFieldCount x kFieldStride
+  const std::uint16_t* first_mask;  // 2 lanes: 0xFFFF below index lanes, then 0
+  const std::uint16_t* near_mask;   // 2 lanes: 0xFFFF at lanes - 1 .. lanes + 1, else 0
+  int lr_max_diff;
+  bool subpixel, census;
+  float d_min, d_max;
+};
+
+/// How the fast row gets its column sums: already slid (census, first row), or slid by the
+/// row itself from the SAD rows, with the cost difference of the two rows in int8 (costs
+/// <= 127) or with both costs widened.
+enum class Slide { kNone, kSadNarrow, kSadWide };
+
+/// The scan of one row for 32 or 64 lanes (NV = 2 or 4 registers). Box costs are TAGGED:
+/// 2^kBits * cost + lane / 8, so that the 8-way fold of the lanes (lane = 8 m + j) and one
+/// phminposuw give the best cost and the FIRST lane that reaches it: the order of (tagged
+/// value, j) is the order of (cost, lane). Per pixel it leaves the fields of FastField.
+template <int NV, Slide kSlide>
+void scan_row_fast(const RowScan& s, const FastRow& f) {
+  constexpr int L = 16 * NV;
+  constexpr int kBits = NV == 2 ? 2 : 3;
+  constexpr int kSlot = L + 2 * kRingGuard;  // a ring slot: guard lanes, the lanes, guard lanes
+  // Everything the loops use, as locals: the per-pixel stores could alias the structs'
+  // fields, which would make the compiler reload them for every pixel.
+  const int w = s.width, r = s.radius, num = s.num, d_top = s.d_top;
+  const int lr = f.lr_max_diff;
+  const bool lr_check = lr >= 0, uniqueness = s.uniqueness > 0;
+  std::uint16_t* const cs = s.column_sums;
+  std::uint16_t* const right_min = s.right_min;
+  std::uint16_t* const ring = f.ring;
+  std::uint16_t* const fields = f.fields;
+  const std::uint16_t* const first_mask = f.first_mask;
+  const std::uint16_t* const near_mask = f.near_mask;
+  const std::uint8_t* const left_new = s.left_new;
+  const std::uint8_t* const left_old = s.left_old;
+  const std::uint8_t* const right_new = s.right_new;
+  const std::uint8_t* const right_old = s.right_old;
+  const int lane_floor = L - num;
+  const auto load = [](const std::uint16_t* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  };
+  const auto store = [](std::uint16_t* p, __m256i v) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
+  };
+  // Lane 0 of pixel x's slot. Pixels -lr..-1 and w..w+lr-1 read as masked.
+  const auto ring_at = [&](int x) { return ring + static_cast<std::size_t>(x & (L - 1)) * kSlot + kRingGuard; };
+  const __m256i ones = _mm256_set1_epi16(-1);
+  for (int x = -kFastMaxLrDiff; x < 0; ++x) {
+    for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
+  }
+  const auto slide_column = [&](int c, __m256i* out) KESTREL_INLINE {
+    std::uint16_t* col = cs + static_cast<std::size_t>(c) * L;
+    if constexpr (kSlide == Slide::kNone) {
+      for (int i = 0; i < NV; ++i) out[i] = load(col + 16 * i);
+    } else {
+      const __m256i vln = _mm256_set1_epi8(static_cast<char>(left_new[c]));
+      const __m256i vlo = _mm256_set1_epi8(static_cast<char>(left_old[c]));
+      for (int i = 0; i < NV; i += 2) {
+        const __m256i r_new = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(right_new + c + 16 * i));
+        const __m256i r_old = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(right_old + c + 16 * i));
+        const __m256i a_new = _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
+        const __m256i a_old = _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
+        __m256i s0 = load(col + 16 * i);
+        __m256i s1 = load(col + 16 * i + 16);
+        if constexpr (kSlide == Slide::kSadNarrow) {
+          // Costs <= 127: their difference is exact in int8, one widening instead of two.
+          const __m256i diff = _mm256_sub_epi8(a_new, a_old);
+          s0 = _mm256_add_epi16(s0, _mm256_cvtepi8_epi16(_mm256_castsi256_si128(diff)));
+          s1 = _mm256_add_epi16(s1, _mm256_cvtepi8_epi16(_mm256_extracti128_si256(diff, 1)));
+        } else {
+          s0 = _mm256_add_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_new)));
+          s0 = _mm256_sub_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_old)));
+          s1 = _mm256_add_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_new, 1)));
+          s1 = _mm256_sub_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_old, 1)));
+        }
+        store(col + 16 * i, s0);
+        store(col + 16 * i + 16, s1);
+        out[i] = s0;
+        out[i + 1] = s1;
+      }
+    }
+  };
+  __m256i box[NV], win[NV];
+  for (int i = 0; i < NV; ++i) {
+    const auto m0 = static_cast<short>(2 * i), m1 = static_cast<short>(2 * i + 1);
+    box[i] = _mm256_setr_epi16(m0, m0, m0, m0, m0, m0, m0, m0, m1, m1, m1, m1, m1, m1, m1, m1);
+    win[i] = ones;
+  }
+  for (int c = 0; c <= 2 * r; ++c) {
+    __m256i col[NV];
+    slide_column(c, col);
+    for (int i = 0; i < NV; ++i) box[i] = _mm256_add_epi16(box[i], _mm256_slli_epi16(col[i], kBits));
+  }
+
+  // Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in
+  // the ring and fold them into the right view's minima.
+  const auto scan = [&](int x, auto masked_tag) KESTREL_INLINE {
+    constexpr bool kMasked = decltype(masked_tag)::value;
+    if (x > 0) {
+      __m256i add[NV];
+      slide_column(x + 2 * r, add);
+      const std::uint16_t* sub = cs + static_cast<std::size_t>(x - 1) * L;
+      for (int i = 0; i < NV; ++i) {
+        box[i] = _mm256_add_epi16(box[i], _mm256_slli_epi16(_mm256_sub_epi16(add[i], load(sub + 16 * i)), kBits));
+      }
+    }
+    __m256i v[NV];
+    if constexpr (kMasked) {
+      const int first = std::max(lane_floor, d_top - x);
+      const std::uint16_t* fm = first_mask + (L - std::min(first, L));
+      for (int i = 0; i < NV; ++i) v[i] = _mm256_or_si256(box[i], load(fm + 16 * i));
+    } else {
+      for (int i = 0; i < NV; ++i) v[i] = box[i];
+    }
+    std::uint16_t* slot = ring_at(x);
+    for (int i = 0; i < NV; ++i) store(slot + 16 * i, v[i]);
+    if (lr_check) {
+      // Right view: lane k holds right pixel x - d_top + k; lane 0 is complete after this x.
+      for (int i = 0; i < NV; ++i) win[i] = _mm256_min_epu16(win[i], v[i]);
+      right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(win[0], 0));
+      for (int i = 0; i < NV; ++i) {
+        const __m256i next = i + 1 < NV ? win[i + 1] : ones;
+        win[i] = _mm256_alignr_epi8(_mm256_permute2x128_si256(win[i], next, 0x21), win[i], 2);
+      }
+    }
+  };
+  // Stage 2, pixel q = x - kLag, from the ring: the winner and the costs the checks and the
+  // fit need. Kept apart from stage 1 so that its long dependency chain (minimum -> winner ->
+  // mask -> second minimum) starts as soon as the costs are stored and overlaps the next
+  // pixels' stage 1; by then the stores have reached the cache (a 16-bit load from a 256-bit
+  // store still in flight cannot be forwarded and stalls). Masked lanes and the guard lanes
+  // and slots read as 0xFFFF, above every cost, so the reads need no range checks: a minimum
+  // ignores them and the fit is not made there.
+  const auto decide = [&](int q) KESTREL_INLINE {
+    const std::uint16_t* slot = ring_at(q);
+    std::uint16_t* fq = fields + q;
+    __m256i v[NV];
+    for (int i = 0; i < NV; ++i) v[i] = load(slot + 16 * i);
+    __m256i m = v[0];
+    for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
+    const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
+    const auto mp = static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m8)));
+    const std::uint32_t tagged = mp & 0xFFFFU;
+    const auto best = static_cast<int>(((tagged & ((1U << kBits) - 1U)) << 3) | ((mp >> 16) & 7U));
+    if (uniqueness) {
+      // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
+      const std::uint16_t* nm = near_mask + (L - best);
+      __m256i m2 = _mm256_or_si256(v[0], load(nm));
+      for (int i = 1; i < NV; ++i) m2 = _mm256_min_epu16(m2, _mm256_or_si256(v[i], load(nm + 16 * i)));
+      const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
+      fq[kFieldSecond * kFieldStride] = static_cast<std::uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(s8)));
+    }
+    fq[kFieldCost * kFieldStride] = static_cast<std::uint16_t>(tagged);
+    fq[kFieldBest * kFieldStride] = static_cast<std::uint16_t>(best);
+    fq[kFieldMinus * kFieldStride] = slot[best + 1];
+    fq[kFieldPlus * kFieldStride] = slot[best - 1];
+    if (lr_check) {
+      // The right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
+      auto diag = static_cast<std::uint16_t>(tagged);
+      if (lr == 1) {  // the default: the neighbours' slots, without a loop
+        const std::uint16_t* next = (q & (L - 1)) == L - 1 ? slot - (L - 1) * kSlot : slot + kSlot;
+        const std::uint16_t* prev = (q & (L - 1)) == 0 ? slot + (L - 1) * kSlot : slot - kSlot;
+        diag = std::min(diag, std::min(next[best - 1], prev[best + 1]));
+      } else {
+        for (int j = 1; j <= lr; ++j) {
+          diag = std::min(diag, std::min(ring_at(q + j)[best - j], ring_at(q - j)[best + j]));
+        }
+      }
+      fq[kFieldDiag * kFieldStride] = diag;
+    }
+  };
+  const int x_full = L > num ? w : std::min(w, std::max(0, d_top + 1));
+  for (int x = 0; x < x_full; ++x) {
+    scan(x, std::true_type{});
+    if (x >= kLag) decide(x - kLag);
+  }
+  for (int x = x_full; x < w; ++x) {
+    scan(x, std::false_type{});
+    if (x >= kLag) decide(x - kLag);
+  }
+  for (int x = w; x < w + kFastMaxLrDiff; ++x) {
+    for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
+  }
+  for (int q = std::max(0, w - kLag); q < w; ++q) decide(q);
+  if (lr_check) {
+    for (int i = 0; i < NV; ++i) store(right_min + w + 16 * i, win[i]);
+  }
+}
+
+/// Disparities of one row from the fields scan_row_fast left: the checks in match_row's
+/// order (unreachable, texture, uniqueness, left-right, depth range) and the subpixel fit,
+/// eight pixels at a time, with match_row's arithmetic (float division included): the same
+/// bits.
+template <int kBits>
+void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats& stats) {
+  const int w = s.width, lanes = s.lanes, d_top = s.d_top;
+  const int lane_floor = lanes - s.num, min_d = d_top - lanes + 1;
+  const bool lr_check = f.lr_max_diff >= 0, texture = s.texture_min > 0;
+  const int uniqueness = s.uniqueness;
+  const std::uint16_t* const fields = f.fields;
+  const std::uint16_t* const right_min = s.right_min;
+  const auto field = [&](int which, int p) {
+    return _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(fields + which * kFieldStride + p)));
+  };
+  const auto cost = [&](int which, int p) { return _mm256_srli_epi32(field(which, p), kBits); };
+  // Per-pixel counts, summed at the end.
+  __m256i n_unreach = _mm256_setzero_si256(), n_tex = n_unreach, n_uniq = n_unreach,
+          n_lr = n_unreach, n_depth = n_unreach, n_valid = n_unreach;
+  const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i zero = _mm256_setzero_si256(), all = _mm256_set1_epi32(-1);
+  const __m256 inf = _mm256_set1_ps(kNoDisparity);
+  const __m256 d_min = _mm256_set1_ps(f.d_min), d_max = _mm256_set1_ps(f.d_max);
+  int p = 0;
+  for (; p + 8 <= w; p += 8) {
+    const __m256i pix = _mm256_add_epi32(_mm256_set1_epi32(p), iota);
+    const __m256i best = field(kFieldBest, p);
+    const __m256i c0 = cost(kFieldCost, p);
+    // Rejections in order: each pixel counts once, under its first failing check.
+    const __m256i unreach = _mm256_cmpgt_epi32(_mm256_set1_epi32(min_d), pix);
+    __m256i open = _mm256_xor_si256(unreach, all);
+    __m256i low_tex = zero, not_unique = zero, lr_fail = zero;
+    if (texture) {
+      low_tex = _mm256_and_si256(open, _mm256_cmpgt_epi32(field(kFieldLowTexture, p), zero));
+      open = _mm256_andnot_si256(low_tex, open);
+    }
+    if (uniqueness > 0) {
+      // second * 100 <= c0 * (100 + u), where there is a second.
+      const __m256i second = field(kFieldSecond, p);
+      const __m256i some = _mm256_xor_si256(_mm256_cmpeq_epi32(second, _mm256_set1_epi32(0xFFFF)), all);
+      const __m256i lhs = _mm256_mullo_epi32(_mm256_srli_epi32(second, kBits), _mm256_set1_epi32(100));
+      const __m256i rhs = _mm256_mullo_epi32(c0, _mm256_set1_epi32(100 + uniqueness));
+      const __m256i fails = _mm256_andnot_si256(_mm256_cmpgt_epi32(lhs, rhs), some);
+      not_unique = _mm256_and_si256(open, fails);
+      open = _mm256_andnot_si256(not_unique, open);
+    }
+    if (lr_check) {
+      // right_min[p + best] (uint16, read as the low half of a 32-bit gather).
+      const __m256i right = _mm256_i32gather_epi32(reinterpret_cast<const int*>(right_min),
+                                                   _mm256_add_epi32(pix, best), 2);
+      const __m256i right_best = _mm256_srli_epi32(_mm256_and_si256(right, _mm256_set1_epi32(0xFFFF)), kBits);
+      lr_fail = _mm256_and_si256(open, _mm256_cmpgt_epi32(cost(kFieldDiag, p), right_best));
+      open = _mm256_andnot_si256(lr_fail, open);
+    }
+    // Subpixel: both neighbours in range and a nonzero cost, as in match_row.
+    __m256 delta = _mm256_setzero_ps();
+    if (f.subpixel) {
+      const __m256i cm = cost(kFieldMinus, p), cp = cost(kFieldPlus, p);
+      const __m256i first = _mm256_max_epi32(_mm256_set1_epi32(lane_floor),
+                                             _mm256_sub_epi32(_mm256_set1_epi32(d_top), pix));
+      __m256i fit = _mm256_cmpgt_epi32(c0, zero);
+      fit = _mm256_and_si256(fit, _mm256_cmpgt_epi32(_mm256_set1_epi32(lanes - 1), best));
+      fit = _mm256_andnot_si256(_mm256_cmpgt_epi32(first, _mm256_sub_epi32(best, _mm256_set1_epi32(1))), fit);
+      const __m256i denom = f.census ? _mm256_sub_epi32(_mm256_add_epi32(cm, cp), _mm256_add_epi32(c0, c0))
+                                     : _mm256_sub_epi32(_mm256_max_epi32(cm, cp), c0);
+      fit = _mm256_and_si256(fit, _mm256_cmpgt_epi32(denom, zero));
+      const __m256i numer = _mm256_and_si256(fit, _mm256_sub_epi32(cm, cp));
+      const __m256i den = _mm256_blendv_epi8(_mm256_set1_epi32(1), _mm256_add_epi32(denom, denom), fit);
+      delta = _mm256_div_ps(_mm256_cvtepi32_ps(numer), _mm256_cvtepi32_ps(den));
+    }
+    const __m256 ds = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_set1_epi32(d_top), best)), delta);
+    const __m256i out_of_range = _mm256_castps_si256(
+        _mm256_or_ps(_mm256_cmp_ps(ds, d_min, _CMP_LT_OQ), _mm256_cmp_ps(ds, d_max, _CMP_GT_OQ)));
+    const __m256i depth_fail = _mm256_and_si256(open, out_of_range);
+    open = _mm256_andnot_si256(depth_fail, open);
+    _mm256_storeu_ps(out + p, _mm256_blendv_ps(inf, ds, _mm256_castsi256_ps(open)));
+    n_unreach = _mm256_sub_epi32(n_unreach, unreach);
+    n_tex = _mm256_sub_epi32(n_tex, low_tex);
+    n_uniq = _mm256_sub_epi32(n_uniq, not_unique);
+    n_lr = _mm256_sub_epi32(n_lr, lr_fail);
+    n_depth = _mm256_sub_epi32(n_depth, depth_fail);
+    n_valid = _mm256_sub_epi32(n_valid, open);
+  }
+  const auto sum = [](__m256i v) {
+    alignas(32) std::int32_t a[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(a), v);
+    return static_cast<std::size_t>(a[0] + a[1] + a[2] + a[3] + a[4] + a[5] + a[6] + a[7]);
+  };
+  stats.unreachable += sum(n_unreach);
+  stats.rejected_texture += sum(n_tex);
+  stats.rejected_uniqueness += sum(n_uniq);
+  stats.rejected_lr += sum(n_lr);
+  stats.rejected_depth += sum(n_depth);
+  stats.valid += sum(n_valid);
+  for (; p < w; ++p) {  // the last width % 8 pixels, one at a time
+    out[p] = kNoDisparity;
+    const std::uint16_t* fp = fields + p;
+    if (p < min_d) {
+      ++stats.unreachable;
+      continue;
+    }
+    if (texture && fp[kFieldLowTexture * kFieldStride] != 0) {
+      ++stats.rejected_texture;
+      continue;
+    }
+    const int best = fp[kFieldBest * kFieldStride], c0 = fp[kFieldCost * kFieldStride] >> kBits;
+    const int second = fp[kFieldSecond * kFieldStride];
+    if (uniqueness > 0 && second != 0xFFFF && (second >> kBits) * 100 <= c0 * (100 + uniqueness)) {
+      ++stats.rejected_uniqueness;
+      continue;
+    }
+    if (lr_check && (fp[kFieldDiag * kFieldStride] >> kBits) > (right_min[p + best] >> kBits)) {
+      ++stats.rejected_lr;
+      continue;
+    }
+    float delta = 0.0F;
+    const int first = std::max(lane_floor, d_top - p);
+    if (f.subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
+      const int cm = fp[kFieldMinus * kFieldStride] >> kBits, cp = fp[kFieldPlus * kFieldStride] >> kBits;
+      const int denom = f.census ? cm + cp - 2 * c0 : std::max(cm, cp) - c0;
+      if (denom > 0) delta = static_cast<float>(cm - cp) / static_cast<float>(2 * denom);
+    }
+    const float ds = static_cast<float>(d_top - best) + delta;
+    if (ds < f.d_min || ds > f.d_max) {
+      ++stats.rejected_depth;
+      continue;
+    }
+    out[p] = ds;
+    ++stats.valid;
+  }
+}
 #endif
 
 }  // namespace
 
 void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
   const int w = width_, lanes = lanes_;
-  const int block = 2 * radius_ + 1;
   const int num = options_.max_disparity - options_.min_disparity;
   const int d_top = options_.min_disparity + lanes - 1;  // disparity of lane 0
   const auto L = static_cast<std::size_t>(lanes);
-  RowScan scan{column_sums_.data(), texture_columns_.data(), w, radius_, lanes, num, d_top,
-               options_.uniqueness_ratio,
-               static_cast<std::uint32_t>(std::ceil(options_.texture_threshold * 2.0 * block * block)),
+  RowScan scan{align64(column_sums_.data()), texture_columns_.data(), w, radius_, lanes, num, d_top,
+               options_.uniqueness_ratio, texture_min_,
                volume_.data(), right_min_.data(), row_disp_.data(), row_state_.data()};
   if (options_.cost == MatchingCost::kSad && y > 0) {
     const int r = radius_, h = height_;
@@ -666,6 +1062,34 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     scan.right_old = right_.data() + static_cast<std::size_t>(y_old) * static_cast<std::size_t>(row_stride_r_);
   }
 #if defined(__AVX2__)
+  if (fast_ && w <= kFieldStride) {
+    const FastRow f{align64(volume_ring_.data()), row_fields_.data(), lane_masks_.data(),
+                    lane_masks_.data() + 2 * L, options_.lr_max_diff, options_.subpixel,
+                    options_.cost == MatchingCost::kCensus, d_min_valid_, d_max_valid_};
+    if (texture_min_ > 0) {
+      // The window's texture sum per pixel, sliding along the row.
+      std::uint16_t* low = row_fields_.data() + kFieldLowTexture * kFieldStride;
+      const std::uint32_t* tc = texture_columns_.data();
+      std::uint32_t tex = 0;
+      for (int c = 0; c < 2 * radius_; ++c) tex += tc[c];
+      for (int x = 0; x < w; ++x) {
+        tex += tc[x + 2 * radius_];
+        low[x] = tex < texture_min_ ? 0xFFFF : 0;
+        tex -= tc[x];
+      }
+    }
+    const bool slide = scan.left_new != nullptr;
+    const bool narrow = options_.max_pixel_cost() <= 127;
+    const auto run = [&]<int NV>() {
+      if (!slide) scan_row_fast<NV, Slide::kNone>(scan, f);
+      else if (narrow) scan_row_fast<NV, Slide::kSadNarrow>(scan, f);
+      else scan_row_fast<NV, Slide::kSadWide>(scan, f);
+      finish_row_fast<NV == 2 ? 2 : 3>(scan, f, out, stats);
+    };
+    if (lanes == 32) run.template operator()<2>();
+    else run.template operator()<4>();
+    return;
+  }
   switch (lanes / 16) {
     case 2: scan_row_avx2<2>(scan); break;
     case 4: scan_row_avx2<4>(scan); break;

@@ -119,17 +119,23 @@ class BlockMatcher {
   int pad_left_ = 0;  // right-row padding on the left: lanes - 1 + min_disparity + radius
   int row_stride_l_ = 0, row_stride_r_ = 0;
   float d_min_valid_ = 0.0F, d_max_valid_ = kNoDisparity;  // from the depth range
+  std::uint32_t texture_min_ = 0;  // least window sum of |central difference|; 0: no test
+  bool fast_ = false;              // the tagged-cost AVX2 row (32 or 64 lanes) applies
   cv::Mat gray_l_, gray_r_;                                 // 8-bit grey inputs (converted)
-  cv::Mat texture_source_;                                  // header of the 8-bit left image
   std::vector<std::uint8_t> left_, right_;                  // padded, prefiltered rows
   std::vector<std::uint64_t> census_l_, census_r_;          // padded census signatures
   std::vector<std::uint8_t> cost_ring_;                     // census: per-pixel cost rows
   std::vector<std::uint16_t> column_sums_;                  // (W + 2r) x lanes
   std::vector<std::uint32_t> texture_columns_;              // W + 2r
+  std::vector<std::uint8_t> gradient_;                      // H x (W + 2r): texture input
   std::vector<std::uint16_t> volume_;                       // W x lanes: box costs of a row
   std::vector<std::uint16_t> right_min_;                    // W + lanes: right view's best
   std::vector<std::int32_t> row_disp_;                      // winning lane per u, -1 none
   std::vector<std::uint8_t> row_state_;
+  // Fast row (AVX2, 32 or 64 lanes): box costs of the last `lanes` pixels, the per-pixel
+  // fields the scan leaves for the finish (winner, costs, texture flag), the lane masks
+  // (lanes below the first reachable one; the winner and its neighbours).
+  std::vector<std::uint16_t> volume_ring_, row_fields_, lane_masks_;
 };
 
 /// Disparity to depth Z = B f / d (thesis eq. 2.9), CV_32F metres, 0 where no disparity.
