@@ -11,6 +11,10 @@ packages=(
   libcli11-dev             # the kestrel command line
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev         # bench/
+  # ROS 1 node (src/ros, optional): roscpp, rosbag, messages, tf2_ros, cv_bridge,
+  # image_transport, and rosmaster for the tests' loopback master (~120 packages, ~45 s)
+  libroscpp-dev librosbag-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
+  libtf2-ros-dev libcv-bridge-dev libimage-transport-dev python3-rosmaster
 )
 
 missing=()

@@ -64,9 +64,10 @@ int main(int argc, char** argv) {
   bag->callback([bag_args] { kestrel::ros::run_bag_odometry(*bag_args); });
 
   auto make_args = std::make_shared<kestrel::ros::MakeBagArgs>();
-  CLI::App* make = app.add_subcommand(
-      "make-bag", "Write a .bag in TUM's topic layout (rgb8 colour, 32FC1 depth in metres, "
-                  "camera_info) from a TUM RGB-D folder");
+  CLI::App* make =
+      app.add_subcommand("make-bag",
+                         "Write a .bag in TUM's topic layout (rgb8 colour, 32FC1 depth in metres, "
+                         "camera_info) from a TUM RGB-D folder");
   make->add_option("--tum", make_args->tum, "TUM RGB-D folder (rgb.txt, depth.txt, ...)")
       ->required();
   make->add_option("--out", make_args->out, "the .bag to write")->required();

@@ -17,12 +17,11 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <opencv2/imgproc.hpp>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
-
-#include <opencv2/imgproc.hpp>
 
 #include "conversions.hpp"
 #include "kestrel/ros/dataset_bridge.hpp"
@@ -77,8 +76,8 @@ void require_topic(const std::map<std::string, std::string>& topics, const std::
                               "; choose another with the topic options)");
   }
   if (it->second != type) {
-    throw bag_error(path, "topic " + topic + " holds " + it->second + ", expected " + type +
-                              " (" + role + ")");
+    throw bag_error(
+        path, "topic " + topic + " holds " + it->second + ", expected " + type + " (" + role + ")");
   }
 }
 
@@ -109,9 +108,10 @@ CameraModel bag_camera(const BagOdometryArgs& args, rosbag::Bag& bag,
   }
   const auto it = topics.find(args.camera_info_topic);
   if (it == topics.end()) {
-    throw bag_error(args.bag, "no camera model: no --camera, the file name does not say "
-                              "freiburg1/2/3, and there is no topic " +
-                                  args.camera_info_topic + " (" + list_topics(topics) + ")");
+    throw bag_error(args.bag,
+                    "no camera model: no --camera, the file name does not say "
+                    "freiburg1/2/3, and there is no topic " +
+                        args.camera_info_topic + " (" + list_topics(topics) + ")");
   }
   rosbag::View view(bag, rosbag::TopicQuery(args.camera_info_topic));
   for (const rosbag::MessageInstance& m : view) {
@@ -161,8 +161,8 @@ void run_bag_odometry(const BagOdometryArgs& args) {
   const std::vector<std::int64_t> rgb_t = image_stamps(bag, args.rgb_topic);
   const std::vector<std::int64_t> depth_t = image_stamps(bag, args.depth_topic);
   const auto pairs = associate_stamps(rgb_t, depth_t, kTumMaxAssociationDiffNs);
-  std::cerr << "kestrel_ros bag: bag=" << args.bag << " " << args.rgb_topic << ": "
-            << rgb_t.size() << " images, " << args.depth_topic << ": " << depth_t.size()
+  std::cerr << "kestrel_ros bag: bag=" << args.bag << " " << args.rgb_topic << ": " << rgb_t.size()
+            << " images, " << args.depth_topic << ": " << depth_t.size()
             << " images, frames=" << pairs.size()
             << " (unmatched rgb: " << rgb_t.size() - pairs.size() << ")\n"
             << "camera (" << camera_source << "): " << describe(camera) << "\n"
@@ -210,8 +210,8 @@ void run_bag_odometry(const BagOdometryArgs& args) {
         if (!out.ok) {
           ++failures;
           if (failure_lines.size() < 20) {
-            failure_lines.push_back("frame " + std::to_string(processed) + " (t=" +
-                                    format_seconds(t_ns) + "): " + out.failure);
+            failure_lines.push_back("frame " + std::to_string(processed) +
+                                    " (t=" + format_seconds(t_ns) + "): " + out.failure);
           }
         }
         keyframes += out.new_keyframe ? 1 : 0;
@@ -226,7 +226,8 @@ void run_bag_odometry(const BagOdometryArgs& args) {
   };
 
   std::size_t rgb_index = 0, depth_index = 0;
-  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{args.rgb_topic, args.depth_topic}));
+  rosbag::View view(bag,
+                    rosbag::TopicQuery(std::vector<std::string>{args.rgb_topic, args.depth_topic}));
   for (const rosbag::MessageInstance& m : view) {
     const bool is_rgb = m.getTopic() == args.rgb_topic;
     const std::size_t index = is_rgb ? rgb_index++ : depth_index++;
@@ -244,8 +245,8 @@ void run_bag_odometry(const BagOdometryArgs& args) {
     const ImageConversion c =
         is_rgb ? intensity_image(*image) : depth_image(*image, args.depth_unit_m);
     if (!c.ok()) {
-      std::cerr << "kestrel_ros bag: warning: " << m.getTopic() << " at t="
-                << format_seconds(to_ns(image->header.stamp)) << ": " << c.error
+      std::cerr << "kestrel_ros bag: warning: " << m.getTopic()
+                << " at t=" << format_seconds(to_ns(image->header.stamp)) << ": " << c.error
                 << "; frame dropped\n";
       dropped.insert(it->second);
     } else {
@@ -255,14 +256,14 @@ void run_bag_odometry(const BagOdometryArgs& args) {
   }
   bag.close();
 
+  if (trajectory.empty()) {
+    throw bag_error(args.bag, "no frame could be used (every pair had an unusable image)");
+  }
   write_tum_trajectory(args.out, trajectory, kBagCommand, args.force);
   std::cout << "wrote " << args.out << " (" << trajectory.size() << " poses, " << keyframes
             << " keyframes, " << failures << " failures, " << dropped.size()
             << " frames dropped)\n";
   for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
-  if (trajectory.empty()) {
-    throw bag_error(args.bag, "no frame could be used (every pair had an unusable image)");
-  }
   std::cout.flush();
   std::cerr << "kestrel_ros bag: " << core.statistics() << "\n";
   std::cerr << summary_line(ms, processed, failures) << std::endl;  // the LAST stderr line
@@ -287,13 +288,15 @@ void run_make_bag(const MakeBagArgs& args) {
   std::string camera_name = args.camera;
   if (camera_name.empty()) camera_name = camera_preset_for_name(args.tum);
   if (camera_name.empty()) {
-    throw std::runtime_error(args.tum + ": the folder name does not say which camera "
-                                        "(freiburg1/2/3): give --camera fr1|fr2|fr3|ros|FILE.yaml");
+    throw std::runtime_error(args.tum +
+                             ": the folder name does not say which camera "
+                             "(freiburg1/2/3): give --camera fr1|fr2|fr3|ros|FILE.yaml");
   }
   const CameraModel camera = load_camera_model(camera_name);
   const TumFolder folder(args.tum);
   if (folder.size() == 0) throw std::runtime_error(args.tum + ": no associated rgb/depth frames");
-  const std::size_t n = args.max_frames == 0 ? folder.size() : std::min(args.max_frames, folder.size());
+  const std::size_t n =
+      args.max_frames == 0 ? folder.size() : std::min(args.max_frames, folder.size());
 
   // Written beside the output and renamed at the end: no half-written bag under its name.
   const fs::path out(args.out);

@@ -6,9 +6,8 @@
 
 #include <cmath>
 #include <limits>
-#include <sstream>
-
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
 namespace kestrel::ros {
 namespace enc = sensor_msgs::image_encodings;
@@ -54,8 +53,8 @@ std::string check_image_layout(const sensor_msgs::Image& msg) {
   const std::uint64_t needed = static_cast<std::uint64_t>(msg.step) * msg.height;
   if (msg.data.size() < needed) {
     std::ostringstream os;
-    os << "image " << describe_image(msg) << ": " << msg.data.size() << " bytes of data, "
-       << needed << " expected (step " << msg.step << " x height " << msg.height << ")";
+    os << "image " << describe_image(msg) << ": " << msg.data.size() << " bytes of data, " << needed
+       << " expected (step " << msg.step << " x height " << msg.height << ")";
     return os.str();
   }
   if (bytes > 1 && static_cast<bool>(msg.is_bigendian) != host_is_big_endian()) {
@@ -123,8 +122,8 @@ std::optional<CameraModel> camera_from_info(const sensor_msgs::CameraInfo& info,
   c.fy = info.K[4];
   c.cx = info.K[2];
   c.cy = info.K[5];
-  const bool plumb_bob = info.distortion_model == "plumb_bob" ||
-                         info.distortion_model == "rational_polynomial";
+  const bool plumb_bob =
+      info.distortion_model == "plumb_bob" || info.distortion_model == "rational_polynomial";
   if (!info.D.empty() && !plumb_bob) {
     error = "camera_info distortion model '" + info.distortion_model +
             "' is not supported (plumb_bob: k1 k2 p1 p2 k3)";
@@ -176,7 +175,8 @@ std::string clean_frame_id(const std::string& frame_id) {
   return frame_id.substr(start);
 }
 
-nav_msgs::Odometry odometry_message(const OdometryOutput& out, const Eigen::Isometry3d& T_odom_child,
+nav_msgs::Odometry odometry_message(const OdometryOutput& out,
+                                    const Eigen::Isometry3d& T_odom_child,
                                     const std::string& odom_frame, const std::string& child_frame) {
   nav_msgs::Odometry msg;
   msg.header.stamp = to_ros_time(out.t_ns);
@@ -258,9 +258,8 @@ nav_msgs::Odometry fused_message(const FusedOutput& state, const Eigen::Vector3d
   msg.twist.twist.angular.y = w_body.y();
   msg.twist.twist.angular.z = w_body.z();
   Eigen::Matrix<double, 6, 6> twist_cov = Eigen::Matrix<double, 6, 6>::Zero();
-  twist_cov.block<3, 3>(0, 0) = R.transpose() *
-                                Eigen::Matrix3d(state.sigma.tail<3>().cwiseAbs2().asDiagonal()) *
-                                R;
+  twist_cov.block<3, 3>(0, 0) =
+      R.transpose() * Eigen::Matrix3d(state.sigma.tail<3>().cwiseAbs2().asDiagonal()) * R;
   // Angular rate: the gyro's noise is not known here; a variance of -1 marks it unknown.
   twist_cov.block<3, 3>(3, 3) = -Eigen::Matrix3d::Identity();
   set_covariance(msg.twist.covariance, twist_cov);

@@ -10,10 +10,9 @@
 #include <sensor_msgs/Image.h>
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-
-#include <opencv2/core.hpp>
 
 #include "kestrel/ros/odometry_core.hpp"
 
@@ -48,7 +47,8 @@ std::int64_t to_ns(const ::ros::Time& t);
 std::string clean_frame_id(const std::string& frame_id);
 
 /// nav_msgs/Odometry of the camera (pose, 6x6 covariance, body twist) in `odom_frame`.
-nav_msgs::Odometry odometry_message(const OdometryOutput& out, const Eigen::Isometry3d& T_odom_child,
+nav_msgs::Odometry odometry_message(const OdometryOutput& out,
+                                    const Eigen::Isometry3d& T_odom_child,
                                     const std::string& odom_frame, const std::string& child_frame);
 geometry_msgs::TransformStamped transform_message(const Eigen::Isometry3d& T_parent_child,
                                                   std::int64_t t_ns, const std::string& parent,

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 
+#include "kestrel/io/euroc.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
@@ -54,8 +55,30 @@ std::size_t TumFolder::unmatched_rgb() const { return impl_->sequence.unmatched_
 
 TumFrame TumFolder::load(std::size_t i) const {
   io::RgbdImages images = impl_->sequence.load(i);
-  return TumFrame{images.t_ns, images.depth_t_ns, std::move(images.bgr),
-                  std::move(images.depth_m)};
+  return TumFrame{images.t_ns, images.depth_t_ns, std::move(images.bgr), std::move(images.depth_m)};
+}
+
+struct EurocFolder::Impl {
+  explicit Impl(const std::string& folder) : sequence(folder) {}
+  io::EurocSequence sequence;
+};
+
+EurocFolder::EurocFolder(const std::string& folder) : impl_(std::make_unique<Impl>(folder)) {}
+EurocFolder::~EurocFolder() = default;
+std::size_t EurocFolder::size() const { return impl_->sequence.stereo_size(); }
+
+StereoFrame EurocFolder::load(std::size_t i) const {
+  io::StereoImages images = impl_->sequence.load_stereo(i);
+  return StereoFrame{images.t_ns, std::move(images.left), std::move(images.right)};
+}
+
+std::vector<ImuReading> EurocFolder::imu(std::int64_t from_ns, std::int64_t to_ns) const {
+  std::vector<ImuReading> out;
+  io::ImuCsvReader reader(impl_->sequence.imu_csv());
+  for (io::ImuSample s; reader.next(s) && s.t_ns < to_ns;) {
+    if (s.t_ns >= from_ns) out.push_back({s.t_ns, s.gyro_rad_s, s.accel_m_s2});
+  }
+  return out;
 }
 
 }  // namespace kestrel::ros

@@ -66,8 +66,9 @@ std::optional<fs::path> euroc_mav0(const std::string& calibration) {
   if (!fs::is_directory(p)) return std::nullopt;
   if (fs::exists(p / "mav0" / "cam0" / "sensor.yaml")) return p / "mav0";
   if (fs::exists(p / "cam0" / "sensor.yaml")) return p;
-  throw InputError(calibration + ": a folder given as stereo calibration must be an EuRoC folder "
-                                 "(mav0/cam0/sensor.yaml and mav0/cam1/sensor.yaml)");
+  throw InputError(calibration +
+                   ": a folder given as stereo calibration must be an EuRoC folder "
+                   "(mav0/cam0/sensor.yaml and mav0/cam1/sensor.yaml)");
 }
 
 /// What the covariance bookkeeping keeps of a tracked frame.
@@ -107,8 +108,8 @@ struct OdometryCore::Impl {
   odometry::DirectTrackerOptions tracker_options;
   sensor::BlockMatcherOptions matcher_options;
   std::optional<CameraModel> camera;
-  std::unique_ptr<odometry::DirectTracker> tracker;   // RGB-D
-  std::unique_ptr<odometry::StereoOdometry> stereo;   // stereo
+  std::unique_ptr<odometry::DirectTracker> tracker;  // RGB-D
+  std::unique_ptr<odometry::StereoOdometry> stereo;  // stereo
   std::optional<sensor::StereoCalibration> calibration;
   std::string calibration_text;
   /// Raw (left) camera <- the camera the tracker estimates (the rectified left view for
@@ -140,8 +141,9 @@ struct OdometryCore::Impl {
 
 void OdometryCore::Impl::build_stereo() {
   if (options.stereo_calibration.empty()) {
-    throw InputError("stereo mode needs a stereo calibration (a Kestrel stereo_pair YAML or an "
-                     "EuRoC folder)");
+    throw InputError(
+        "stereo mode needs a stereo calibration (a Kestrel stereo_pair YAML or an "
+        "EuRoC folder)");
   }
   const auto mav0 = euroc_mav0(options.stereo_calibration);
   if (mav0) {
@@ -155,8 +157,8 @@ void OdometryCore::Impl::build_stereo() {
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("block matcher options: ") + e.what());
   }
-  stereo = std::make_unique<odometry::StereoOdometry>(*calibration, matcher_options,
-                                                      tracker_options);
+  stereo =
+      std::make_unique<odometry::StereoOdometry>(*calibration, matcher_options, tracker_options);
   T_raw_track = SE3(SO3::from_matrix(stereo->R_rect_left().transpose()), Eigen::Vector3d::Zero());
   camera = from_pinhole(calibration->left);
   calibration_text = calibration->describe();
@@ -173,8 +175,9 @@ void OdometryCore::Impl::build_fusion(const std::optional<fs::path>& mav0) {
   } else if (mav0 && fs::exists(*mav0 / "imu0" / "sensor.yaml")) {
     f.set_imu_noise(io::load_imu_noise(*mav0 / "imu0" / "sensor.yaml"));
   } else if (options.fusion_options_file.empty()) {
-    throw InputError("IMU fusion needs the IMU's noise model: an imu_noise file (EuRoC "
-                     "imu0/sensor.yaml layout) or a fusion_options file with its densities");
+    throw InputError(
+        "IMU fusion needs the IMU's noise model: an imu_noise file (EuRoC "
+        "imu0/sensor.yaml layout) or a fusion_options file with its densities");
   }
   SE3 T_body_raw;
   if (options.T_body_cam) {
@@ -291,7 +294,8 @@ OdometryOutput OdometryCore::track_stereo(std::int64_t t_ns, const cv::Mat& left
   const auto t0 = std::chrono::steady_clock::now();
   const odometry::StereoTrackResult r = m.stereo->track(t_ns, left, right);
   const auto t1 = std::chrono::steady_clock::now();
-  OdometryOutput out = m.finish(r.track, std::chrono::duration<double, std::milli>(t1 - t0).count());
+  OdometryOutput out =
+      m.finish(r.track, std::chrono::duration<double, std::milli>(t1 - t0).count());
   out.disparity_fill = r.match.fill_rate();
   return out;
 }
@@ -441,7 +445,8 @@ std::string OdometryCore::describe() const {
   os << "mode: " << (m.options.mode == OdometryMode::kStereo ? "stereo" : "rgbd") << "\n";
   if (m.camera) os << "camera: " << ros::describe(*m.camera) << "\n";
   if (!m.calibration_text.empty()) os << "stereo calibration: " << m.calibration_text << "\n";
-  if (m.options.mode == OdometryMode::kStereo) os << "matcher: " << m.matcher_options.describe() << "\n";
+  if (m.options.mode == OdometryMode::kStereo)
+    os << "matcher: " << m.matcher_options.describe() << "\n";
   os << "tracker options"
      << (m.options.tracker_options_file.empty() ? " (defaults)"
                                                 : " from " + m.options.tracker_options_file)

@@ -3,9 +3,11 @@
 // drop the oldest images, which keeps the node on the freshest frames.
 #include "odometry_node.hpp"
 
+#include <ros/callback_queue.h>
 #include <tf2/exceptions.h>
 
 #include <cmath>
+#include <csignal>
 #include <sstream>
 #include <stdexcept>
 
@@ -108,8 +110,8 @@ std::string NodeParameters::describe() const {
      << "\nstereo_calibration: " << stereo_calibration
      << "\nmatcher_options: " << (matcher_options.empty() ? "(defaults)" : matcher_options)
      << "\nuse_imu: " << (use_imu ? "true" : "false") << "\nimu_noise: " << imu_noise
-     << "\nfusion_options: " << fusion_options << "\nT_body_cam: "
-     << (T_body_cam.empty() ? "(default)" : "(16 numbers)")
+     << "\nfusion_options: " << fusion_options
+     << "\nT_body_cam: " << (T_body_cam.empty() ? "(default)" : "(16 numbers)")
      << "\nvo_covariance_scale: " << vo_covariance_scale << "\nmax_imu_hold: " << max_imu_hold
      << "\nsync_tolerance: " << sync_tolerance << "\ndepth_unit: " << depth_unit
      << "\nqueue_size: " << queue_size << "\nodom_frame: " << odom_frame
@@ -136,8 +138,8 @@ OdometryNode::OdometryNode(::ros::NodeHandle nh, ::ros::NodeHandle private_nh)
   options.imu_noise_file = params_.imu_noise;
   options.fusion_options_file = params_.fusion_options;
   if (!params_.T_body_cam.empty()) {
-    options.T_body_cam = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(
-        params_.T_body_cam.data());
+    options.T_body_cam =
+        Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(params_.T_body_cam.data());
   }
   options.vo_covariance_scale = params_.vo_covariance_scale;
   options.max_imu_hold_s = params_.max_imu_hold;
@@ -191,11 +193,29 @@ std::string OdometryNode::statistics() const {
   return os.str();
 }
 
-void OdometryNode::drop(const std::string& why) {
+void OdometryNode::warn_throttled(const std::string& kind, const std::string& message) {
+  const auto now = std::chrono::steady_clock::now();
+  const auto period = std::chrono::duration<double>(params_.warn_period);
+  auto [it, first] = throttles_.try_emplace(kind);
+  Throttle& t = it->second;
+  if (!first && now - t.last < period) {
+    ++t.suppressed;
+    return;
+  }
+  if (t.suppressed > 0) {
+    ROS_WARN_STREAM("kestrel_ros: " << message << " (and " << t.suppressed
+                                    << " more like it since the last report)");
+  } else {
+    ROS_WARN_STREAM("kestrel_ros: " << message);
+  }
+  t.last = now;
+  t.suppressed = 0;
+}
+
+void OdometryNode::drop(const std::string& kind, const std::string& why) {
   ++dropped_;
-  ROS_WARN_STREAM_THROTTLE(params_.warn_period,
-                           "kestrel_ros: frame dropped: " << why << " (" << dropped_
-                                                          << " dropped so far)");
+  warn_throttled(kind,
+                 "frame dropped: " + why + " (" + std::to_string(dropped_) + " dropped so far)");
 }
 
 void OdometryNode::on_colour(const ImagePtr& msg) {
@@ -215,9 +235,7 @@ void OdometryNode::on_camera_info(const sensor_msgs::CameraInfoConstPtr& msg) {
   std::string error;
   const auto camera = camera_from_info(*msg, error);
   if (!camera) {
-    ROS_WARN_STREAM_THROTTLE(params_.warn_period,
-                             "kestrel_ros: " << sub_info_.getTopic() << ": " << error
-                                             << "; ignored");
+    warn_throttled("camera_info", sub_info_.getTopic() + ": " + error + "; ignored");
     return;
   }
   const auto current = core_->camera();
@@ -246,10 +264,8 @@ void OdometryNode::on_imu(const sensor_msgs::ImuConstPtr& msg) {
   if (imu_frame_.empty()) imu_frame_ = clean_frame_id(msg->header.frame_id);
   if (!core_->add_imu(to_ns(msg->header.stamp), gyro, accel)) {
     ++imu_rejected_;
-    ROS_WARN_STREAM_THROTTLE(params_.warn_period,
-                             "kestrel_ros: IMU sample at t=" << seconds(to_ns(msg->header.stamp))
-                                                             << " ignored (not finite, or not "
-                                                                "after the previous one)");
+    warn_throttled("imu", "IMU sample at t=" + seconds(to_ns(msg->header.stamp)) +
+                              " ignored (not finite, or not after the previous one)");
     return;
   }
   last_gyro_ = gyro;
@@ -277,16 +293,16 @@ bool OdometryNode::prepare_frame(std::int64_t t_ns, const std::string& image_fra
     try {
       T = tf_buffer_.lookupTransform(params_.base_frame, camera_frame, ::ros::Time(0));
     } catch (const tf2::TransformException& e) {
-      drop("no transform " + params_.base_frame + " <- " + camera_frame + " yet: " + e.what());
+      drop("tf",
+           "no transform " + params_.base_frame + " <- " + camera_frame + " yet: " + e.what());
       return false;
     }
     const Eigen::Quaterniond q(T.transform.rotation.w, T.transform.rotation.x,
                                T.transform.rotation.y, T.transform.rotation.z);
     Eigen::Matrix4d T_base_cam = Eigen::Matrix4d::Identity();
     T_base_cam.block<3, 3>(0, 0) = q.normalized().toRotationMatrix();
-    T_base_cam.block<3, 1>(0, 3) =
-        Eigen::Vector3d(T.transform.translation.x, T.transform.translation.y,
-                        T.transform.translation.z);
+    T_base_cam.block<3, 1>(0, 3) = Eigen::Vector3d(
+        T.transform.translation.x, T.transform.translation.y, T.transform.translation.z);
     core_->set_child_from_camera(T_base_cam);
     core_->reset();
     child_frame_ = params_.base_frame;
@@ -300,17 +316,19 @@ bool OdometryNode::prepare_frame(std::int64_t t_ns, const std::string& image_fra
 void OdometryNode::process_rgbd(const ImagePtr& colour, const ImagePtr& depth) {
   const std::int64_t t_ns = to_ns(colour->header.stamp);
   if (!core_->has_camera()) {
-    drop("no camera model yet: waiting for " + sub_info_.getTopic() + " (or set ~camera)");
+    drop("camera",
+         "no camera model yet: waiting for " + sub_info_.getTopic() + " (or set ~camera)");
     return;
   }
   const ImageConversion c = intensity_image(*colour);
   if (!c.ok()) {
-    drop(sub_a_.getTopic() + " at t=" + seconds(t_ns) + ": " + c.error);
+    drop("colour", sub_a_.getTopic() + " at t=" + seconds(t_ns) + ": " + c.error);
     return;
   }
   const ImageConversion d = depth_image(*depth, params_.depth_unit);
   if (!d.ok()) {
-    drop(sub_b_.getTopic() + " at t=" + seconds(to_ns(depth->header.stamp)) + ": " + d.error);
+    drop("depth",
+         sub_b_.getTopic() + " at t=" + seconds(to_ns(depth->header.stamp)) + ": " + d.error);
     return;
   }
   if (!prepare_frame(t_ns, colour->header.frame_id)) return;
@@ -322,12 +340,13 @@ void OdometryNode::process_stereo(const ImagePtr& left, const ImagePtr& right) {
   const std::int64_t t_ns = to_ns(left->header.stamp);
   const ImageConversion l = intensity_image(*left);
   if (!l.ok()) {
-    drop(sub_a_.getTopic() + " at t=" + seconds(t_ns) + ": " + l.error);
+    drop("left", sub_a_.getTopic() + " at t=" + seconds(t_ns) + ": " + l.error);
     return;
   }
   const ImageConversion r = intensity_image(*right);
   if (!r.ok()) {
-    drop(sub_b_.getTopic() + " at t=" + seconds(to_ns(right->header.stamp)) + ": " + r.error);
+    drop("right",
+         sub_b_.getTopic() + " at t=" + seconds(to_ns(right->header.stamp)) + ": " + r.error);
     return;
   }
   if (!prepare_frame(t_ns, left->header.frame_id)) return;
@@ -336,16 +355,15 @@ void OdometryNode::process_stereo(const ImagePtr& left, const ImagePtr& right) {
 
 void OdometryNode::publish(const OdometryOutput& out) {
   if (out.invalid_input) {
-    drop("t=" + seconds(out.t_ns) + ": " + out.failure);
+    drop("invalid", "t=" + seconds(out.t_ns) + ": " + out.failure);
     return;
   }
   last_frame_ns_ = out.t_ns;
   if (!out.ok) {
     ++failures_;
-    ROS_WARN_STREAM_THROTTLE(params_.warn_period,
-                             "kestrel_ros: tracking failed at t=" << seconds(out.t_ns) << ": "
-                                                                  << out.failure << " ("
-                                                                  << failures_ << " so far)");
+    warn_throttled("tracking", "tracking failed at t=" + seconds(out.t_ns) + ": " + out.failure +
+                                   " (" + std::to_string(failures_) +
+                                   " so far; nothing published for this frame)");
   } else {
     const Eigen::Isometry3d T = to_isometry(out.T_odom_child);
     pub_odom_.publish(odometry_message(out, T, params_.odom_frame, child_frame_));
@@ -375,7 +393,16 @@ void OdometryNode::publish(const OdometryOutput& out) {
   ROS_INFO_STREAM_THROTTLE(30.0, "kestrel_ros: " << statistics());
 }
 
+namespace {
+
+volatile std::sig_atomic_t g_stop_requested = 0;
+extern "C" void request_stop(int) { g_stop_requested = 1; }
+
+}  // namespace
+
 int run_odometry_node(int argc, char** argv) {
+  // Until the node runs, roscpp's own SIGINT handling applies (it also ends its waits for a
+  // master); ros::init itself may already wait for one when given _param:=value arguments.
   ::ros::init(argc, argv, "kestrel_odometry");
   // What ros::init left are not ROS arguments: refuse them rather than ignore a typo.
   for (int i = 2; i < argc; ++i) {
@@ -384,23 +411,30 @@ int run_odometry_node(int argc, char** argv) {
     return 2;
   }
   if (!::ros::master::check()) {
-    // Wait for a master (started later) instead of failing at once, as roscpp nodes do,
-    // but say so.
     ROS_WARN_STREAM("kestrel_ros: no ROS master at " << ::ros::master::getURI()
                                                      << " yet; waiting for it");
   }
+  // This handle lives until the end: destroying the last NodeHandle shuts roscpp (and its
+  // logging) down, which would swallow the messages below.
+  ::ros::NodeHandle nh;
+  if (!::ros::ok()) return 0;  // stopped while waiting for the master
+  // From here SIGINT/SIGTERM only ask the loop below to stop, so that the node can still log
+  // its statistics before roscpp shuts down.
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
+  int code = 0;
   try {
-    ::ros::NodeHandle nh;
-    ::ros::NodeHandle pnh("~");
-    OdometryNode node(nh, pnh);
-    ::ros::spin();
+    OdometryNode node(nh, ::ros::NodeHandle("~"));
+    while (g_stop_requested == 0 && ::ros::ok()) {
+      ::ros::getGlobalCallbackQueue()->callAvailable(::ros::WallDuration(0.05));
+    }
     ROS_INFO_STREAM("kestrel_ros: stopped: " << node.statistics());
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("kestrel_ros: " << e.what());
-    ::ros::shutdown();
-    return 1;
+    code = 1;
   }
-  return 0;
+  ::ros::shutdown();
+  return code;
 }
 
 }  // namespace kestrel::ros

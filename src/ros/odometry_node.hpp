@@ -15,6 +15,8 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <chrono>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -45,8 +47,8 @@ struct NodeParameters {
   std::string base_frame;    ///< empty: odometry and TF of the camera frame itself
   bool publish_tf = true;
   std::string world_frame = "world";  ///< frame of the fused state
-  std::string body_frame;  ///< child frame of the fused state; empty: the IMU's frame_id
-  double warn_period = 5.0;  ///< s between repeated warnings of one kind
+  std::string body_frame;             ///< child frame of the fused state; empty: the IMU's frame_id
+  double warn_period = 5.0;           ///< s between repeated warnings of one kind
 
   /// Reads ~params, keeping the defaults for those not set. Throws std::runtime_error for a
   /// value of the wrong type or out of range, naming the parameter.
@@ -77,7 +79,11 @@ class OdometryNode {
   /// Checks time order and the base frame; false: drop the frame.
   bool prepare_frame(std::int64_t t_ns, const std::string& image_frame_id);
   void publish(const OdometryOutput& out);
-  void drop(const std::string& why);
+  /// Counts a dropped frame and warns (throttled per `kind`).
+  void drop(const std::string& kind, const std::string& why);
+  /// A warning at most once per warn_period for each `kind`; the repeats in between are
+  /// counted and reported with the next one, so distinct problems never hide each other.
+  void warn_throttled(const std::string& kind, const std::string& message);
 
   ::ros::NodeHandle nh_, pnh_;
   NodeParameters params_;
@@ -96,6 +102,11 @@ class OdometryNode {
   std::optional<std::int64_t> last_frame_ns_;
   Eigen::Vector3d last_gyro_ = Eigen::Vector3d::Zero();
   std::string imu_frame_;
+  struct Throttle {
+    std::chrono::steady_clock::time_point last;
+    std::size_t suppressed = 0;
+  };
+  std::map<std::string, Throttle> throttles_;
   std::size_t published_ = 0, dropped_ = 0, failures_ = 0, resets_ = 0, imu_rejected_ = 0;
 };
 

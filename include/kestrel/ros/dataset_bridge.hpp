@@ -6,11 +6,10 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "kestrel/ros/odometry_core.hpp"
 
@@ -60,6 +59,34 @@ class TumFolder {
   [[nodiscard]] std::size_t size() const;
   [[nodiscard]] std::size_t unmatched_rgb() const;
   [[nodiscard]] TumFrame load(std::size_t i) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// An EuRoC folder read by io::EurocSequence: stereo pairs (cam0/cam1 with equal stamps) and
+/// the IMU (for tests and tools that replay it to the node).
+struct StereoFrame {
+  std::int64_t t_ns = 0;
+  cv::Mat left, right;  ///< raw CV_8UC1
+};
+struct ImuReading {
+  std::int64_t t_ns = 0;
+  Eigen::Vector3d gyro_rad_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_m_s2 = Eigen::Vector3d::Zero();
+};
+class EurocFolder {
+ public:
+  /// Throws std::exception (InputError) naming the file and line.
+  explicit EurocFolder(const std::string& folder);
+  ~EurocFolder();
+  EurocFolder(const EurocFolder&) = delete;
+  EurocFolder& operator=(const EurocFolder&) = delete;
+  [[nodiscard]] std::size_t size() const;
+  [[nodiscard]] StereoFrame load(std::size_t i) const;
+  /// mav0/imu0/data.csv samples with from_ns <= t < to_ns.
+  [[nodiscard]] std::vector<ImuReading> imu(std::int64_t from_ns, std::int64_t to_ns) const;
 
  private:
   struct Impl;

@@ -9,11 +9,10 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 namespace kestrel::ros {
 
@@ -92,10 +91,10 @@ struct OdometryOutput {
   Eigen::Matrix<double, 6, 6> twist_covariance = Eigen::Matrix<double, 6, 6>::Zero();
   bool new_keyframe = false;
   int iterations = 0;
-  double sigma = 0.0;         ///< final robust sigma of the photometric residuals
+  double sigma = 0.0;  ///< final robust sigma of the photometric residuals
   double inlier_ratio = 0.0;
   double processing_ms = 0.0;
-  double disparity_fill = 0.0;  ///< stereo: share of pixels with a disparity
+  double disparity_fill = 0.0;     ///< stereo: share of pixels with a disparity
   std::vector<FusedOutput> fused;  ///< EKF states produced by this frame (use_imu)
 };
 
