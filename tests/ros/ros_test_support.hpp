@@ -231,6 +231,11 @@ class RosTestEnvironment {
     if (init_done_) ::ros::shutdown();
     if (master_) master_->stop(5.0);
     master_.reset();
+    // The node and master logs are kept for a failed run only.
+    if (!dir_.empty() && ::testing::UnitTest::GetInstance()->Passed()) {
+      std::error_code ec;
+      std::filesystem::remove_all(dir_, ec);
+    }
   }
   [[nodiscard]] const std::string& master_uri() const { return uri_; }
   [[nodiscard]] const std::filesystem::path& dir() const { return dir_; }

@@ -93,6 +93,7 @@ TEST(RosBagCli, CameraInfoOfTheBagIsUsedWhenNothingElseSaysTheCamera) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("camera (from /camera/rgb/camera_info)"), std::string::npos) << r.err;
   expect_library_trajectory(out, "bag mode with the bag's camera_info");
+  fs::remove(plain);  // 30 MB
 }
 
 TEST(RosBagCli, MakeBagRefusesToOverwriteWithoutForce) {
@@ -111,6 +112,7 @@ TEST(RosBagCli, MakeBagRefusesToOverwriteWithoutForce) {
   EXPECT_EQ(forced.exit_code, 0) << forced.err;
   EXPECT_GT(fs::file_size(out), 100000u);
   EXPECT_FALSE(fs::exists(out.string() + ".partial"));
+  fs::remove(out);
 }
 
 TEST(RosBagCli, BagModeRefusesToOverwriteAUsersFile) {

@@ -76,6 +76,7 @@ TEST(RosBagInputs, StreamsThatNeverPairAreAnError) {
                                    quoted((scratch / "t.txt").string()) + " --camera fr1");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("no colour/depth image pairs within 20 ms"), std::string::npos) << r.err;
+  fs::remove(path);  // test bags are megabytes: not left in /tmp
 }
 
 TEST(RosBagInputs, UnexpectedEncodingsAreDroppedAndTheRestIsTracked) {
@@ -121,6 +122,7 @@ TEST(RosBagInputs, UnexpectedEncodingsAreDroppedAndTheRestIsTracked) {
   EXPECT_NE(r.out.find("(6 poses, "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("2 frames dropped"), std::string::npos) << r.out;
   EXPECT_EQ(last_line_of(r.err).rfind("SUMMARY frames=6 failures=", 0), 0u) << r.err;
+  fs::remove(path);
 }
 
 }  // namespace
