@@ -43,13 +43,16 @@ inline std::uint16_t* align64(std::uint16_t* p) {
   const auto a = reinterpret_cast<std::uintptr_t>(p);
   return reinterpret_cast<std::uint16_t*>((a + 63) & ~std::uintptr_t{63});
 }
-// The fast row decides pixel x - kLag while it scans pixel x; its ring of box costs holds the
-// last `lanes` >= 32 pixels (kLag + kFastMaxLrDiff < 32), each slot with kRingGuard masked
-// lanes on either side, so that the left-right diagonal (|j| <= lr_max_diff <=
-// kFastMaxLrDiff) and the fit's neighbours never leave the slots.
+// The fast row checks pixel x - kLag while it scans pixel x; its ring of box costs holds the
+// last kRingSlots pixels (> kLag + kFastMaxLrDiff), each slot with kRingGuard masked lanes on
+// either side, so that the left-right diagonal (|j| <= lr_max_diff <= kFastMaxLrDiff) and the
+// fit's neighbours never leave the slots.
 constexpr int kLag = 16;
 constexpr int kFastMaxLrDiff = 8;
+constexpr int kRingSlots = 32;
 constexpr int kRingGuard = 16;  // 32 bytes: the slots' lanes stay 32-byte aligned
+static_assert(kLag > kFastMaxLrDiff && kRingSlots > kLag + kFastMaxLrDiff &&
+              kRingGuard >= kFastMaxLrDiff);
 
 /// What scan_row_fast leaves per pixel for finish_row_fast: one uint16 field array each, all
 /// at constant offsets from one base (kFieldStride apart), so that the scan addresses every
@@ -62,7 +65,6 @@ enum FastField : int {
   kFieldDiag,      // the least cost on the right pixel's diagonal within lr_max_diff
   kFieldSecond,    // the least cost further than 1 lane from the winner (0xFFFF: none)
   kFieldBest,      // the winner's lane (not tagged)
-  kFieldLowTexture,  // 0xFFFF where the window's texture is below the threshold
   kFieldCount
 };
 constexpr int kFieldStride = 8192;  // the fast row handles widths up to this
@@ -304,7 +306,7 @@ void BlockMatcher::prepare(int width, int height) {
   row_disp_.assign(static_cast<std::size_t>(width), -1);
   row_state_.assign(static_cast<std::size_t>(width), 0);
   gradient_.assign(texture_min_ > 0 ? cols * static_cast<std::size_t>(height) : 0, 0);
-  volume_ring_.assign(fast_ ? lanes * (lanes + 2 * kRingGuard) + kAlignSlack : 0, kMaskedCost);
+  volume_ring_.assign(fast_ ? kRingSlots * (lanes + 2 * kRingGuard) + kAlignSlack : 0, kMaskedCost);
   row_fields_.assign(fast_ && width <= kFieldStride ? std::size_t{kFieldCount} * kFieldStride : 0, 0);
 }
 
@@ -766,7 +768,7 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
   };
   // Lane 0 of pixel x's slot. Pixels -lr..-1 and w..w+lr-1 read as masked.
-  const auto ring_at = [&](int x) { return ring + static_cast<std::size_t>(x & (L - 1)) * kSlot + kRingGuard; };
+  const auto ring_at = [&](int x) { return ring + static_cast<std::size_t>(x & (kRingSlots - 1)) * kSlot + kRingGuard; };
   const __m256i ones = _mm256_set1_epi16(-1);
   for (int x = -kFastMaxLrDiff; x < 0; ++x) {
     for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
@@ -816,7 +818,7 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
   }
 
   // Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in
-  // the ring and fold them into the right view's minima.
+  // the ring, find the winner, and fold the costs into the right view's minima.
   const auto scan = [&](int x, auto masked_tag) KESTREL_INLINE {
     constexpr bool kMasked = decltype(masked_tag)::value;
     if (x > 0) {
@@ -837,6 +839,16 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
     }
     std::uint16_t* slot = ring_at(x);
     for (int i = 0; i < NV; ++i) store(slot + 16 * i, v[i]);
+    {  // The winner: cost and first lane from one fold and one phminposuw (tagged costs).
+      __m256i m = v[0];
+      for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
+      const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
+      const auto mp = static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m8)));
+      const std::uint32_t tagged = mp & 0xFFFFU;
+      fields[kFieldCost * kFieldStride + x] = static_cast<std::uint16_t>(tagged);
+      fields[kFieldBest * kFieldStride + x] =
+          static_cast<std::uint16_t>(((tagged & ((1U << kBits) - 1U)) << 3) | ((mp >> 16) & 7U));
+    }
     if (lr_check) {
       // Right view: lane k holds right pixel x - d_top + k; lane 0 is complete after this x.
       for (int i = 0; i < NV; ++i) win[i] = _mm256_min_epu16(win[i], v[i]);
@@ -847,42 +859,36 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
       }
     }
   };
-  // Stage 2, pixel q = x - kLag, from the ring: the winner and the costs the checks and the
-  // fit need. Kept apart from stage 1 so that its long dependency chain (minimum -> winner ->
-  // mask -> second minimum) starts as soon as the costs are stored and overlaps the next
-  // pixels' stage 1; by then the stores have reached the cache (a 16-bit load from a 256-bit
-  // store still in flight cannot be forwarded and stalls). Masked lanes and the guard lanes
-  // and slots read as 0xFFFF, above every cost, so the reads need no range checks: a minimum
-  // ignores them and the fit is not made there.
-  const auto decide = [&](int q) KESTREL_INLINE {
+  // Stage 2, pixel q = x - kLag: what the checks and the fit need around the winner, read
+  // back from the ring and the fields. Kept apart from stage 1 so that its dependency chain
+  // (winner -> mask -> second minimum) starts from stored inputs and overlaps the next
+  // pixels' stage 1, and so that its 16-bit loads find the 256-bit ring stores in the cache
+  // (a load from a store still in flight that it does not match cannot be forwarded and
+  // stalls). Masked lanes and the guard lanes and slots read as 0xFFFF, above every cost, so
+  // the reads need no range checks: a minimum ignores them and the fit is not made there.
+  const auto check = [&](int q) KESTREL_INLINE {
     const std::uint16_t* slot = ring_at(q);
     std::uint16_t* fq = fields + q;
-    __m256i v[NV];
-    for (int i = 0; i < NV; ++i) v[i] = load(slot + 16 * i);
-    __m256i m = v[0];
-    for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
-    const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
-    const auto mp = static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m8)));
-    const std::uint32_t tagged = mp & 0xFFFFU;
-    const auto best = static_cast<int>(((tagged & ((1U << kBits) - 1U)) << 3) | ((mp >> 16) & 7U));
+    const int best = fq[kFieldBest * kFieldStride];
     if (uniqueness) {
       // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
       const std::uint16_t* nm = near_mask + (L - best);
-      __m256i m2 = _mm256_or_si256(v[0], load(nm));
-      for (int i = 1; i < NV; ++i) m2 = _mm256_min_epu16(m2, _mm256_or_si256(v[i], load(nm + 16 * i)));
+      __m256i m2 = _mm256_or_si256(load(slot), load(nm));
+      for (int i = 1; i < NV; ++i) {
+        m2 = _mm256_min_epu16(m2, _mm256_or_si256(load(slot + 16 * i), load(nm + 16 * i)));
+      }
       const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
       fq[kFieldSecond * kFieldStride] = static_cast<std::uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(s8)));
     }
-    fq[kFieldCost * kFieldStride] = static_cast<std::uint16_t>(tagged);
-    fq[kFieldBest * kFieldStride] = static_cast<std::uint16_t>(best);
     fq[kFieldMinus * kFieldStride] = slot[best + 1];
     fq[kFieldPlus * kFieldStride] = slot[best - 1];
     if (lr_check) {
       // The right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
-      auto diag = static_cast<std::uint16_t>(tagged);
+      std::uint16_t diag = fq[kFieldCost * kFieldStride];
       if (lr == 1) {  // the default: the neighbours' slots, without a loop
-        const std::uint16_t* next = (q & (L - 1)) == L - 1 ? slot - (L - 1) * kSlot : slot + kSlot;
-        const std::uint16_t* prev = (q & (L - 1)) == 0 ? slot + (L - 1) * kSlot : slot - kSlot;
+        const int at = q & (kRingSlots - 1);
+        const std::uint16_t* next = at == kRingSlots - 1 ? slot - (kRingSlots - 1) * kSlot : slot + kSlot;
+        const std::uint16_t* prev = at == 0 ? slot + (kRingSlots - 1) * kSlot : slot - kSlot;
         diag = std::min(diag, std::min(next[best - 1], prev[best + 1]));
       } else {
         for (int j = 1; j <= lr; ++j) {
@@ -895,16 +901,20 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
   const int x_full = L > num ? w : std::min(w, std::max(0, d_top + 1));
   for (int x = 0; x < x_full; ++x) {
     scan(x, std::true_type{});
-    if (x >= kLag) decide(x - kLag);
+    if (x >= kLag) check(x - kLag);
   }
   for (int x = x_full; x < w; ++x) {
     scan(x, std::false_type{});
-    if (x >= kLag) decide(x - kLag);
+    if (x >= kLag) check(x - kLag);
   }
+  // The last pixels: the guard slots of pixels w.. overwrite pixels w - kRingSlots.., which
+  // only the pixels before q_guard still read.
+  const int q_guard = std::max(0, w - kFastMaxLrDiff);
+  for (int q = std::max(0, w - kLag); q < q_guard; ++q) check(q);
   for (int x = w; x < w + kFastMaxLrDiff; ++x) {
     for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
   }
-  for (int q = std::max(0, w - kLag); q < w; ++q) decide(q);
+  for (int q = std::max(q_guard, w - kLag); q < w; ++q) check(q);
   if (lr_check) {
     for (int i = 0; i < NV; ++i) store(right_min + w + 16 * i, win[i]);
   }
@@ -913,7 +923,7 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
 /// Disparities of one row from the fields scan_row_fast left: the checks in match_row's
 /// order (unreachable, texture, uniqueness, left-right, depth range) and the subpixel fit,
 /// eight pixels at a time, with match_row's arithmetic (float division included): the same
-/// bits.
+/// bits. The texture sum of a window is added up here from the column sums.
 template <int kBits>
 void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats& stats) {
   const int w = s.width, lanes = s.lanes, d_top = s.d_top;
@@ -922,6 +932,9 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
   const int uniqueness = s.uniqueness;
   const std::uint16_t* const fields = f.fields;
   const std::uint16_t* const right_min = s.right_min;
+  const std::uint32_t* const texture_columns = s.texture_columns;
+  const int block = 2 * s.radius + 1;
+  const __m256i texture_min = _mm256_set1_epi32(static_cast<int>(std::min<std::uint32_t>(s.texture_min, 0x7FFFFFFF)));
   const auto field = [&](int which, int p) {
     return _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(fields + which * kFieldStride + p)));
   };
@@ -943,7 +956,12 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
     __m256i open = _mm256_xor_si256(unreach, all);
     __m256i low_tex = zero, not_unique = zero, lr_fail = zero;
     if (texture) {
-      low_tex = _mm256_and_si256(open, _mm256_cmpgt_epi32(field(kFieldLowTexture, p), zero));
+      // The window's sum of texture columns p .. p + 2r (below 2^31: a signed compare).
+      __m256i tex = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(texture_columns + p));
+      for (int c = 1; c < block; ++c) {
+        tex = _mm256_add_epi32(tex, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(texture_columns + p + c)));
+      }
+      low_tex = _mm256_and_si256(open, _mm256_cmpgt_epi32(texture_min, tex));
       open = _mm256_andnot_si256(low_tex, open);
     }
     if (uniqueness > 0) {
@@ -1011,9 +1029,13 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
       ++stats.unreachable;
       continue;
     }
-    if (texture && fp[kFieldLowTexture * kFieldStride] != 0) {
-      ++stats.rejected_texture;
-      continue;
+    if (texture) {
+      std::uint32_t tex = 0;
+      for (int c = 0; c < block; ++c) tex += texture_columns[p + c];
+      if (tex < s.texture_min) {
+        ++stats.rejected_texture;
+        continue;
+      }
     }
     const int best = fp[kFieldBest * kFieldStride], c0 = fp[kFieldCost * kFieldStride] >> kBits;
     const int second = fp[kFieldSecond * kFieldStride];
@@ -1066,18 +1088,6 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     const FastRow f{align64(volume_ring_.data()), row_fields_.data(), lane_masks_.data(),
                     lane_masks_.data() + 2 * L, options_.lr_max_diff, options_.subpixel,
                     options_.cost == MatchingCost::kCensus, d_min_valid_, d_max_valid_};
-    if (texture_min_ > 0) {
-      // The window's texture sum per pixel, sliding along the row.
-      std::uint16_t* low = row_fields_.data() + kFieldLowTexture * kFieldStride;
-      const std::uint32_t* tc = texture_columns_.data();
-      std::uint32_t tex = 0;
-      for (int c = 0; c < 2 * radius_; ++c) tex += tc[c];
-      for (int x = 0; x < w; ++x) {
-        tex += tc[x + 2 * radius_];
-        low[x] = tex < texture_min_ ? 0xFFFF : 0;
-        tex -= tc[x];
-      }
-    }
     const bool slide = scan.left_new != nullptr;
     const bool narrow = options_.max_pixel_cost() <= 127;
     const auto run = [&]<int NV>() {
