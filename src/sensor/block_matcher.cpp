@@ -54,6 +54,13 @@ constexpr int kRingGuard = 16;  // 32 bytes: the slots' lanes stay 32-byte align
 static_assert(kLag > kFastMaxLrDiff && kRingSlots > kLag + kFastMaxLrDiff &&
               kRingGuard >= kFastMaxLrDiff);
 
+/// The fast row's storage order of the lanes in its column sums, ring and window (a swap of
+/// bits 3 and 4, its own inverse): in each group of 32 lanes, register 2g holds lanes 0..7
+/// and 16..23, register 2g + 1 lanes 8..15 and 24..31, the order in which punpck{l,h}bw
+/// leave 32 byte lanes. Each half register is still 8 consecutive lanes, which is all the
+/// tagged winner search needs.
+constexpr int lane_at_position(int at) { return (at & ~0x18) | ((at & 8) << 1) | ((at & 16) >> 1); }
+
 /// What scan_row_fast leaves per pixel for finish_row_fast: one uint16 field array each, all
 /// at constant offsets from one base (kFieldStride apart), so that the scan addresses every
 /// field from one register. Costs are stored TAGGED (see scan_row_fast) and decoded eight
@@ -276,11 +283,24 @@ BlockMatcher::BlockMatcher(BlockMatcherOptions options, std::optional<RectifiedS
     fast_ = (max_box << bits) + (1L << bits) - 1 < 0xFFFF && options_.lr_max_diff <= kFastMaxLrDiff;
   }
 #endif
-  // first_mask: 0xFFFF below index lanes; near_mask: 0xFFFF at lanes - 1 .. lanes + 1.
-  const auto L = static_cast<std::size_t>(lanes_);
-  lane_masks_.assign(4 * L, 0);
-  std::fill(lane_masks_.begin(), lane_masks_.begin() + static_cast<std::ptrdiff_t>(L), kMaskedCost);
-  for (std::size_t k = L - 1; k <= L + 1; ++k) lane_masks_[2 * L + k] = kMaskedCost;
+  if (fast_) {
+    // The fast row's tables: where each lane sits in a slot (guard lanes where they are), and
+    // for each winner b the mask of the lanes b - 1 .. b + 1.
+    column_scale_ = lanes_ == 32 ? 4 : 8;
+    lane_positions_.resize(static_cast<std::size_t>(lanes_ + 2 * kRingGuard));
+    for (int k = -kRingGuard; k < lanes_ + kRingGuard; ++k) {
+      lane_positions_[static_cast<std::size_t>(k + kRingGuard)] =
+          static_cast<std::int16_t>(k >= 0 && k < lanes_ ? lane_at_position(k) : k);
+    }
+    const auto L = static_cast<std::size_t>(lanes_);
+    near_masks_.assign(L * L + kAlignSlack, 0);
+    std::uint16_t* masks = align64(near_masks_.data());
+    for (int b = 0; b < lanes_; ++b) {
+      for (int at = 0; at < lanes_; ++at) {
+        if (std::abs(lane_at_position(at) - b) <= 1) masks[static_cast<std::size_t>(b) * L + static_cast<std::size_t>(at)] = kMaskedCost;
+      }
+    }
+  }
 }
 
 void BlockMatcher::prepare(int width, int height) {
@@ -422,6 +442,37 @@ void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
   }
 }
 
+#if defined(__AVX2__)
+namespace {
+
+/// Column sums += scale * |l - r| of one row, in the fast row's storage order (its slide with
+/// no outgoing row).
+void add_sad_row_fast(std::uint16_t* column_sums, const std::uint8_t* lrow, const std::uint8_t* rrow,
+                      int cols, int lanes, int scale) {
+  const __m256i weights = _mm256_set1_epi16(static_cast<short>(scale));
+  const __m256i zero = _mm256_setzero_si256();
+  for (int c = 0; c < cols; ++c) {
+    std::uint16_t* col = column_sums + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
+    const __m256i l = _mm256_set1_epi8(static_cast<char>(lrow[c]));
+    for (int i = 0; i < lanes; i += 32) {
+      const __m256i r = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rrow + c + i));
+      const __m256i a = _mm256_or_si256(_mm256_subs_epu8(l, r), _mm256_subs_epu8(r, l));
+      auto* s0 = reinterpret_cast<__m256i*>(col + i);
+      auto* s1 = reinterpret_cast<__m256i*>(col + i + 16);
+      _mm256_storeu_si256(s0, _mm256_add_epi16(_mm256_loadu_si256(s0), _mm256_maddubs_epi16(_mm256_unpacklo_epi8(a, zero), weights)));
+      _mm256_storeu_si256(s1, _mm256_add_epi16(_mm256_loadu_si256(s1), _mm256_maddubs_epi16(_mm256_unpackhi_epi8(a, zero), weights)));
+    }
+  }
+}
+
+}  // namespace
+#endif
+
+std::size_t BlockMatcher::column_position(int lane) const {
+  return fast_ ? static_cast<std::size_t>(lane_positions_[static_cast<std::size_t>(lane + kRingGuard)])
+               : static_cast<std::size_t>(lane);
+}
+
 void BlockMatcher::init_column_sums() {
   const int r = radius_, h = height_;
   const int cols = row_stride_l_, lanes = lanes_;
@@ -437,10 +488,19 @@ void BlockMatcher::init_column_sums() {
     if (options_.cost == MatchingCost::kSad) {
       const std::uint8_t* lrow = left_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
       const std::uint8_t* rrow = right_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_);
+#if defined(__AVX2__)
+      if (fast_) {
+        add_sad_row_fast(align64(column_sums_.data()), lrow, rrow, cols, lanes, column_scale_);
+        continue;
+      }
+#endif
       for (int c = 0; c < cols; ++c) {
         std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
-        for (int i = 0; i < lanes; ++i) {
-          cs[i] = static_cast<std::uint16_t>(cs[i] + std::abs(int{lrow[c]} - int{rrow[c + i]}));
+        for (int i0 = 0; i0 < lanes; i0 += 8) {  // the storage order keeps runs of 8 lanes
+          std::uint16_t* sum = cs + column_position(i0);
+          for (int i = 0; i < 8; ++i) {
+            sum[i] = static_cast<std::uint16_t>(sum[i] + column_scale_ * std::abs(int{lrow[c]} - int{rrow[c + i0 + i]}));
+          }
         }
       }
     } else {
@@ -451,10 +511,13 @@ void BlockMatcher::init_column_sums() {
       for (int c = 0; c < cols; ++c) {
         std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         std::uint8_t* rc = ring + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
-        for (int i = 0; i < lanes; ++i) {
-          const auto pc = static_cast<std::uint8_t>(std::popcount(lrow[c] ^ rrow[c + i]));
-          rc[i] = pc;
-          cs[i] = static_cast<std::uint16_t>(cs[i] + pc);
+        for (int i0 = 0; i0 < lanes; i0 += 8) {
+          std::uint16_t* sum = cs + column_position(i0);
+          for (int i = 0; i < 8; ++i) {
+            const auto pc = static_cast<std::uint8_t>(std::popcount(lrow[c] ^ rrow[c + i0 + i]));
+            rc[i0 + i] = pc;
+            sum[i] = static_cast<std::uint16_t>(sum[i] + column_scale_ * pc);
+          }
         }
       }
     }
@@ -486,10 +549,13 @@ void BlockMatcher::advance_column_sums(int y) {
       std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * lane_stride;
       std::uint8_t* rc = ring + static_cast<std::size_t>(c) * lane_stride;
       const std::uint64_t lc = lrow[c];
-      for (int i = 0; i < lanes; ++i) {
-        const auto pc = static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i]));
-        cs[i] = static_cast<std::uint16_t>(cs[i] + pc - rc[i]);
-        rc[i] = pc;
+      for (int i0 = 0; i0 < lanes; i0 += 8) {
+        std::uint16_t* sum = cs + column_position(i0);
+        for (int i = 0; i < 8; ++i) {
+          const auto pc = static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i0 + i]));
+          sum[i] = static_cast<std::uint16_t>(sum[i] + column_scale_ * (pc - rc[i0 + i]));
+          rc[i0 + i] = pc;
+        }
       }
     }
   }
@@ -722,19 +788,18 @@ void scan_row_avx2(const RowScan& s) {
 
 
 struct FastRow {
-  std::uint16_t* ring;              // lanes slots: tagged box costs of pixel x at x % lanes
+  std::uint16_t* ring;              // kRingSlots slots: tagged box costs of pixel x at x % slots
   std::uint16_t* fields;            // kFieldCount x kFieldStride
-  const std::uint16_t* first_mask;  // 2 lanes: 0xFFFF below index lanes, then 0
-  const std::uint16_t* near_mask;   // 2 lanes: 0xFFFF at lanes - 1 .. lanes + 1, else 0
+  const std::uint16_t* near_masks;  // lanes x lanes: 0xFFFF at the positions of lanes b-1..b+1
+  const std::int16_t* position;     // lane -> position in a slot, lanes -kRingGuard..lanes+15
   int lr_max_diff;
   bool subpixel, census;
   float d_min, d_max;
 };
 
 /// How the fast row gets its column sums: already slid (census, first row), or slid by the
-/// row itself from the SAD rows, with the cost difference of the two rows in int8 (costs
-/// <= 127) or with both costs widened.
-enum class Slide { kNone, kSadNarrow, kSadWide };
+/// row itself from the SAD rows.
+enum class Slide { kNone, kSad };
 
 /// The scan of one row for 32 or 64 lanes (NV = 2 or 4 registers). Box costs are TAGGED:
 /// 2^kBits * cost + lane / 8, so that the 8-way fold of the lanes (lane = 8 m + j) and one
@@ -754,8 +819,8 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
   std::uint16_t* const right_min = s.right_min;
   std::uint16_t* const ring = f.ring;
   std::uint16_t* const fields = f.fields;
-  const std::uint16_t* const first_mask = f.first_mask;
-  const std::uint16_t* const near_mask = f.near_mask;
+  const std::uint16_t* const near_masks = f.near_masks;
+  const std::int16_t* const position = f.position;
   const std::uint8_t* const left_new = s.left_new;
   const std::uint8_t* const left_old = s.left_old;
   const std::uint8_t* const right_new = s.right_new;
@@ -767,17 +832,34 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
   const auto store = [](std::uint16_t* p, __m256i v) {
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
   };
-  // Lane 0 of pixel x's slot. Pixels -lr..-1 and w..w+lr-1 read as masked.
+  // Position 0 of pixel x's slot. Pixels -lr..-1 and w..w+lr-1 read as masked.
   const auto ring_at = [&](int x) { return ring + static_cast<std::size_t>(x & (kRingSlots - 1)) * kSlot + kRingGuard; };
   const __m256i ones = _mm256_set1_epi16(-1);
   for (int x = -kFastMaxLrDiff; x < 0; ++x) {
     for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
+  }
+  // Storage order (see FastLayout): vector 2g + v holds lanes 32g + 8v + {0..7} in its low
+  // half and 32g + 16 + 8v + {0..7} in its high half.
+  __m256i lane_of[NV], box[NV], win[NV];
+  for (int i = 0; i < NV; ++i) {
+    alignas(32) std::int16_t lanes_here[16];
+    for (int t = 0; t < 16; ++t) lanes_here[t] = static_cast<std::int16_t>(lane_at_position(16 * i + t));
+    lane_of[i] = _mm256_load_si256(reinterpret_cast<const __m256i*>(lanes_here));
+    // The tag lane / 8 in the low bits: the costs themselves are stored times 2^kBits.
+    box[i] = _mm256_srli_epi16(lane_of[i], 3);
+    win[i] = ones;
   }
   const auto slide_column = [&](int c, __m256i* out) KESTREL_INLINE {
     std::uint16_t* col = cs + static_cast<std::size_t>(c) * L;
     if constexpr (kSlide == Slide::kNone) {
       for (int i = 0; i < NV; ++i) out[i] = load(col + 16 * i);
     } else {
+      // 2^kBits (|l - r| of the new row - |l - r| of the old one), 32 lanes at a time:
+      // pmaddubsw on the interleaved costs (weights 2^kBits, -2^kBits) subtracts, widens and
+      // scales in one step (|result| <= 8 * 255, no saturation) and yields the storage order
+      // directly.
+      constexpr int kScale = 1 << kBits;
+      const __m256i weights = _mm256_set1_epi16(static_cast<short>(((256 - kScale) << 8) | kScale));
       const __m256i vln = _mm256_set1_epi8(static_cast<char>(left_new[c]));
       const __m256i vlo = _mm256_set1_epi8(static_cast<char>(left_old[c]));
       for (int i = 0; i < NV; i += 2) {
@@ -785,19 +867,8 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
         const __m256i r_old = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(right_old + c + 16 * i));
         const __m256i a_new = _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
         const __m256i a_old = _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
-        __m256i s0 = load(col + 16 * i);
-        __m256i s1 = load(col + 16 * i + 16);
-        if constexpr (kSlide == Slide::kSadNarrow) {
-          // Costs <= 127: their difference is exact in int8, one widening instead of two.
-          const __m256i diff = _mm256_sub_epi8(a_new, a_old);
-          s0 = _mm256_add_epi16(s0, _mm256_cvtepi8_epi16(_mm256_castsi256_si128(diff)));
-          s1 = _mm256_add_epi16(s1, _mm256_cvtepi8_epi16(_mm256_extracti128_si256(diff, 1)));
-        } else {
-          s0 = _mm256_add_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_new)));
-          s0 = _mm256_sub_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_old)));
-          s1 = _mm256_add_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_new, 1)));
-          s1 = _mm256_sub_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_old, 1)));
-        }
+        const __m256i s0 = _mm256_add_epi16(load(col + 16 * i), _mm256_maddubs_epi16(_mm256_unpacklo_epi8(a_new, a_old), weights));
+        const __m256i s1 = _mm256_add_epi16(load(col + 16 * i + 16), _mm256_maddubs_epi16(_mm256_unpackhi_epi8(a_new, a_old), weights));
         store(col + 16 * i, s0);
         store(col + 16 * i + 16, s1);
         out[i] = s0;
@@ -805,16 +876,10 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
       }
     }
   };
-  __m256i box[NV], win[NV];
-  for (int i = 0; i < NV; ++i) {
-    const auto m0 = static_cast<short>(2 * i), m1 = static_cast<short>(2 * i + 1);
-    box[i] = _mm256_setr_epi16(m0, m0, m0, m0, m0, m0, m0, m0, m1, m1, m1, m1, m1, m1, m1, m1);
-    win[i] = ones;
-  }
   for (int c = 0; c <= 2 * r; ++c) {
     __m256i col[NV];
     slide_column(c, col);
-    for (int i = 0; i < NV; ++i) box[i] = _mm256_add_epi16(box[i], _mm256_slli_epi16(col[i], kBits));
+    for (int i = 0; i < NV; ++i) box[i] = _mm256_add_epi16(box[i], col[i]);
   }
 
   // Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in
@@ -825,15 +890,12 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
       __m256i add[NV];
       slide_column(x + 2 * r, add);
       const std::uint16_t* sub = cs + static_cast<std::size_t>(x - 1) * L;
-      for (int i = 0; i < NV; ++i) {
-        box[i] = _mm256_add_epi16(box[i], _mm256_slli_epi16(_mm256_sub_epi16(add[i], load(sub + 16 * i)), kBits));
-      }
+      for (int i = 0; i < NV; ++i) box[i] = _mm256_sub_epi16(_mm256_add_epi16(box[i], add[i]), load(sub + 16 * i));
     }
     __m256i v[NV];
-    if constexpr (kMasked) {
-      const int first = std::max(lane_floor, d_top - x);
-      const std::uint16_t* fm = first_mask + (L - std::min(first, L));
-      for (int i = 0; i < NV; ++i) v[i] = _mm256_or_si256(box[i], load(fm + 16 * i));
+    if constexpr (kMasked) {  // lanes below first_lane(x) are out of range
+      const __m256i first = _mm256_set1_epi16(static_cast<short>(std::max(lane_floor, d_top - x)));
+      for (int i = 0; i < NV; ++i) v[i] = _mm256_or_si256(box[i], _mm256_cmpgt_epi16(first, lane_of[i]));
     } else {
       for (int i = 0; i < NV; ++i) v[i] = box[i];
     }
@@ -850,12 +912,17 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
           static_cast<std::uint16_t>(((tagged & ((1U << kBits) - 1U)) << 3) | ((mp >> 16) & 7U));
     }
     if (lr_check) {
-      // Right view: lane k holds right pixel x - d_top + k; lane 0 is complete after this x.
+      // Right view: lane k holds right pixel x - d_top + k; lane 0 (position 0) is complete
+      // after this x. The window then moves down one lane: in storage order the low vector
+      // of a group takes the high one's first lane of each half, the high vector takes the
+      // low vector's second half and the next group's first.
       for (int i = 0; i < NV; ++i) win[i] = _mm256_min_epu16(win[i], v[i]);
       right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(win[0], 0));
-      for (int i = 0; i < NV; ++i) {
-        const __m256i next = i + 1 < NV ? win[i + 1] : ones;
-        win[i] = _mm256_alignr_epi8(_mm256_permute2x128_si256(win[i], next, 0x21), win[i], 2);
+      for (int g = 0; g < NV / 2; ++g) {
+        const __m256i a = win[2 * g], b = win[2 * g + 1];
+        const __m256i next = 2 * g + 2 < NV ? win[2 * g + 2] : ones;
+        win[2 * g] = _mm256_alignr_epi8(b, a, 2);
+        win[2 * g + 1] = _mm256_alignr_epi8(_mm256_permute2x128_si256(a, next, 0x21), b, 2);
       }
     }
   };
@@ -872,7 +939,7 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
     const int best = fq[kFieldBest * kFieldStride];
     if (uniqueness) {
       // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
-      const std::uint16_t* nm = near_mask + (L - best);
+      const std::uint16_t* nm = near_masks + static_cast<std::size_t>(best) * L;
       __m256i m2 = _mm256_or_si256(load(slot), load(nm));
       for (int i = 1; i < NV; ++i) {
         m2 = _mm256_min_epu16(m2, _mm256_or_si256(load(slot + 16 * i), load(nm + 16 * i)));
@@ -880,19 +947,17 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
       const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
       fq[kFieldSecond * kFieldStride] = static_cast<std::uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(s8)));
     }
-    fq[kFieldMinus * kFieldStride] = slot[best + 1];
-    fq[kFieldPlus * kFieldStride] = slot[best - 1];
+    const int at_minus = position[best + 1], at_plus = position[best - 1];
+    fq[kFieldMinus * kFieldStride] = slot[at_minus];
+    fq[kFieldPlus * kFieldStride] = slot[at_plus];
     if (lr_check) {
       // The right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
       std::uint16_t diag = fq[kFieldCost * kFieldStride];
-      if (lr == 1) {  // the default: the neighbours' slots, without a loop
-        const int at = q & (kRingSlots - 1);
-        const std::uint16_t* next = at == kRingSlots - 1 ? slot - (kRingSlots - 1) * kSlot : slot + kSlot;
-        const std::uint16_t* prev = at == 0 ? slot + (kRingSlots - 1) * kSlot : slot - kSlot;
-        diag = std::min(diag, std::min(next[best - 1], prev[best + 1]));
+      if (lr == 1) {  // the default: the positions are the fit's
+        diag = std::min(diag, std::min(ring_at(q + 1)[at_plus], ring_at(q - 1)[at_minus]));
       } else {
         for (int j = 1; j <= lr; ++j) {
-          diag = std::min(diag, std::min(ring_at(q + j)[best - j], ring_at(q - j)[best + j]));
+          diag = std::min(diag, std::min(ring_at(q + j)[position[best - j]], ring_at(q - j)[position[best + j]]));
         }
       }
       fq[kFieldDiag * kFieldStride] = diag;
@@ -915,8 +980,10 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
     for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
   }
   for (int q = std::max(q_guard, w - kLag); q < w; ++q) check(q);
-  if (lr_check) {
-    for (int i = 0; i < NV; ++i) store(right_min + w + 16 * i, win[i]);
+  if (lr_check) {  // right pixels w - d_top + k, k < L: back to lane order
+    alignas(32) std::uint16_t rest[L];
+    for (int i = 0; i < NV; ++i) _mm256_store_si256(reinterpret_cast<__m256i*>(rest + 16 * i), win[i]);
+    for (int k = 0; k < L; ++k) right_min[w + k] = rest[position[k]];
   }
 }
 
@@ -1085,15 +1152,13 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
   }
 #if defined(__AVX2__)
   if (fast_ && w <= kFieldStride) {
-    const FastRow f{align64(volume_ring_.data()), row_fields_.data(), lane_masks_.data(),
-                    lane_masks_.data() + 2 * L, options_.lr_max_diff, options_.subpixel,
+    const FastRow f{align64(volume_ring_.data()), row_fields_.data(), align64(near_masks_.data()),
+                    lane_positions_.data() + kRingGuard, options_.lr_max_diff, options_.subpixel,
                     options_.cost == MatchingCost::kCensus, d_min_valid_, d_max_valid_};
     const bool slide = scan.left_new != nullptr;
-    const bool narrow = options_.max_pixel_cost() <= 127;
     const auto run = [&]<int NV>() {
       if (!slide) scan_row_fast<NV, Slide::kNone>(scan, f);
-      else if (narrow) scan_row_fast<NV, Slide::kSadNarrow>(scan, f);
-      else scan_row_fast<NV, Slide::kSadWide>(scan, f);
+      else scan_row_fast<NV, Slide::kSad>(scan, f);
       finish_row_fast<NV == 2 ? 2 : 3>(scan, f, out, stats);
     };
     if (lanes == 32) run.template operator()<2>();

@@ -132,10 +132,13 @@ class BlockMatcher {
   std::vector<std::uint16_t> right_min_;                    // W + lanes: right view's best
   std::vector<std::int32_t> row_disp_;                      // winning lane per u, -1 none
   std::vector<std::uint8_t> row_state_;
-  // Fast row (AVX2, 32 or 64 lanes): box costs of the last `lanes` pixels, the per-pixel
-  // fields the scan leaves for the finish (winner, costs, texture flag), the lane masks
-  // (lanes below the first reachable one; the winner and its neighbours).
-  std::vector<std::uint16_t> volume_ring_, row_fields_, lane_masks_;
+  // Fast row (AVX2, 32 or 64 lanes): its column sums are scaled by column_scale_ and stored
+  // in its lane order; box costs of the last pixels, the per-pixel fields the scan leaves for
+  // the finish, the winner's neighbour masks and the slot position of each lane.
+  [[nodiscard]] std::size_t column_position(int lane) const;
+  int column_scale_ = 1;
+  std::vector<std::uint16_t> volume_ring_, row_fields_, near_masks_;
+  std::vector<std::int16_t> lane_positions_;
 };
 
 /// Disparity to depth Z = B f / d (thesis eq. 2.9), CV_32F metres, 0 where no disparity.
