@@ -8,11 +8,13 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -991,12 +993,15 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
 /// order (unreachable, texture, uniqueness, left-right, depth range) and the subpixel fit,
 /// eight pixels at a time, with match_row's arithmetic (float division included): the same
 /// bits. The texture sum of a window is added up here from the column sums.
-template <int kBits>
+/// kChecks: which checks are on (kFinish*), so that each combination is its own loop.
+constexpr int kFinishTexture = 1, kFinishUnique = 2, kFinishLr = 4, kFinishSubpixel = 8;
+template <int kBits, int kChecks>
 void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats& stats) {
   const int w = s.width, lanes = s.lanes, d_top = s.d_top;
   const int lane_floor = lanes - s.num, min_d = d_top - lanes + 1;
-  const bool lr_check = f.lr_max_diff >= 0, texture = s.texture_min > 0;
-  const int uniqueness = s.uniqueness;
+  constexpr bool lr_check = (kChecks & kFinishLr) != 0, texture = (kChecks & kFinishTexture) != 0;
+  constexpr bool subpixel = (kChecks & kFinishSubpixel) != 0;
+  const int uniqueness = (kChecks & kFinishUnique) != 0 ? s.uniqueness : 0;
   const std::uint16_t* const fields = f.fields;
   const std::uint16_t* const right_min = s.right_min;
   const std::uint32_t* const texture_columns = s.texture_columns;
@@ -1022,7 +1027,7 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
     const __m256i unreach = _mm256_cmpgt_epi32(_mm256_set1_epi32(min_d), pix);
     __m256i open = _mm256_xor_si256(unreach, all);
     __m256i low_tex = zero, not_unique = zero, lr_fail = zero;
-    if (texture) {
+    if constexpr (texture) {
       // The window's sum of texture columns p .. p + 2r (below 2^31: a signed compare).
       __m256i tex = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(texture_columns + p));
       for (int c = 1; c < block; ++c) {
@@ -1031,7 +1036,7 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
       low_tex = _mm256_and_si256(open, _mm256_cmpgt_epi32(texture_min, tex));
       open = _mm256_andnot_si256(low_tex, open);
     }
-    if (uniqueness > 0) {
+    if constexpr ((kChecks & kFinishUnique) != 0) {
       // second * 100 <= c0 * (100 + u), where there is a second.
       const __m256i second = field(kFieldSecond, p);
       const __m256i some = _mm256_xor_si256(_mm256_cmpeq_epi32(second, _mm256_set1_epi32(0xFFFF)), all);
@@ -1041,7 +1046,7 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
       not_unique = _mm256_and_si256(open, fails);
       open = _mm256_andnot_si256(not_unique, open);
     }
-    if (lr_check) {
+    if constexpr (lr_check) {
       // right_min[p + best] (uint16, read as the low half of a 32-bit gather).
       const __m256i right = _mm256_i32gather_epi32(reinterpret_cast<const int*>(right_min),
                                                    _mm256_add_epi32(pix, best), 2);
@@ -1051,7 +1056,7 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
     }
     // Subpixel: both neighbours in range and a nonzero cost, as in match_row.
     __m256 delta = _mm256_setzero_ps();
-    if (f.subpixel) {
+    if constexpr (subpixel) {
       const __m256i cm = cost(kFieldMinus, p), cp = cost(kFieldPlus, p);
       const __m256i first = _mm256_max_epi32(_mm256_set1_epi32(lane_floor),
                                              _mm256_sub_epi32(_mm256_set1_epi32(d_top), pix));
@@ -1096,7 +1101,7 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
       ++stats.unreachable;
       continue;
     }
-    if (texture) {
+    if constexpr (texture) {
       std::uint32_t tex = 0;
       for (int c = 0; c < block; ++c) tex += texture_columns[p + c];
       if (tex < s.texture_min) {
@@ -1116,7 +1121,7 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
     }
     float delta = 0.0F;
     const int first = std::max(lane_floor, d_top - p);
-    if (f.subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
+    if (subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
       const int cm = fp[kFieldMinus * kFieldStride] >> kBits, cp = fp[kFieldPlus * kFieldStride] >> kBits;
       const int denom = f.census ? cm + cp - 2 * c0 : std::max(cm, cp) - c0;
       if (denom > 0) delta = static_cast<float>(cm - cp) / static_cast<float>(2 * denom);
@@ -1129,6 +1134,11 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
     out[p] = ds;
     ++stats.valid;
   }
+}
+
+template <int kBits, std::size_t... kChecks>
+constexpr auto finish_row_table(std::index_sequence<kChecks...>) {
+  return std::array{&finish_row_fast<kBits, static_cast<int>(kChecks)>...};
 }
 #endif
 
@@ -1159,7 +1169,12 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     const auto run = [&]<int NV>() {
       if (!slide) scan_row_fast<NV, Slide::kNone>(scan, f);
       else scan_row_fast<NV, Slide::kSad>(scan, f);
-      finish_row_fast<NV == 2 ? 2 : 3>(scan, f, out, stats);
+      const int checks = (texture_min_ > 0 ? kFinishTexture : 0) |
+                         (options_.uniqueness_ratio > 0 ? kFinishUnique : 0) |
+                         (options_.lr_max_diff >= 0 ? kFinishLr : 0) |
+                         (options_.subpixel ? kFinishSubpixel : 0);
+      finish_row_table<NV == 2 ? 2 : 3>(std::make_index_sequence<16>{})[static_cast<std::size_t>(checks)](
+          scan, f, out, stats);
     };
     if (lanes == 32) run.template operator()<2>();
     else run.template operator()<4>();
