@@ -288,7 +288,6 @@ BlockMatcher::BlockMatcher(BlockMatcherOptions options, std::optional<RectifiedS
   if (fast_) {
     // The fast row's tables: where each lane sits in a slot (guard lanes where they are), and
     // for each winner b the mask of the lanes b - 1 .. b + 1.
-    column_scale_ = lanes_ == 32 ? 4 : 8;
     lane_positions_.resize(static_cast<std::size_t>(lanes_ + 2 * kRingGuard));
     for (int k = -kRingGuard; k < lanes_ + kRingGuard; ++k) {
       lane_positions_[static_cast<std::size_t>(k + kRingGuard)] =
@@ -470,15 +469,18 @@ void add_sad_row_fast(std::uint16_t* column_sums, const std::uint8_t* lrow, cons
 }  // namespace
 #endif
 
-std::size_t BlockMatcher::column_position(int lane) const {
-  return fast_ ? static_cast<std::size_t>(lane_positions_[static_cast<std::size_t>(lane + kRingGuard)])
-               : static_cast<std::size_t>(lane);
-}
+bool BlockMatcher::fast_row() const { return fast_ && !portable_ && width_ <= kFieldStride; }
+
+int BlockMatcher::column_scale() const { return fast_row() ? (lanes_ == 32 ? 4 : 8) : 1; }
 
 void BlockMatcher::init_column_sums() {
   const int r = radius_, h = height_;
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
+  // The fast row's column sums are scaled and permuted in runs of 8 lanes (lane_at_position).
+  const bool fast = fast_row();
+  const int scale = column_scale();
+  const auto run_at = [fast](int lane) { return static_cast<std::size_t>(fast ? lane_at_position(lane) : lane); };
   std::fill(column_sums_.begin(), column_sums_.end(), std::uint16_t{0});
   std::fill(texture_columns_.begin(), texture_columns_.end(), 0U);
   for (int k = -r; k <= r; ++k) {
@@ -491,17 +493,17 @@ void BlockMatcher::init_column_sums() {
       const std::uint8_t* lrow = left_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
       const std::uint8_t* rrow = right_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_);
 #if defined(__AVX2__)
-      if (fast_) {
-        add_sad_row_fast(align64(column_sums_.data()), lrow, rrow, cols, lanes, column_scale_);
+      if (fast_row()) {
+        add_sad_row_fast(align64(column_sums_.data()), lrow, rrow, cols, lanes, column_scale());
         continue;
       }
 #endif
       for (int c = 0; c < cols; ++c) {
         std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         for (int i0 = 0; i0 < lanes; i0 += 8) {  // the storage order keeps runs of 8 lanes
-          std::uint16_t* sum = cs + column_position(i0);
+          std::uint16_t* sum = cs + run_at(i0);
           for (int i = 0; i < 8; ++i) {
-            sum[i] = static_cast<std::uint16_t>(sum[i] + column_scale_ * std::abs(int{lrow[c]} - int{rrow[c + i0 + i]}));
+            sum[i] = static_cast<std::uint16_t>(sum[i] + scale * std::abs(int{lrow[c]} - int{rrow[c + i0 + i]}));
           }
         }
       }
@@ -514,11 +516,11 @@ void BlockMatcher::init_column_sums() {
         std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         std::uint8_t* rc = ring + static_cast<std::size_t>(c) * static_cast<std::size_t>(lanes);
         for (int i0 = 0; i0 < lanes; i0 += 8) {
-          std::uint16_t* sum = cs + column_position(i0);
+          std::uint16_t* sum = cs + run_at(i0);
           for (int i = 0; i < 8; ++i) {
             const auto pc = static_cast<std::uint8_t>(std::popcount(lrow[c] ^ rrow[c + i0 + i]));
             rc[i0 + i] = pc;
-            sum[i] = static_cast<std::uint16_t>(sum[i] + column_scale_ * pc);
+            sum[i] = static_cast<std::uint16_t>(sum[i] + scale * pc);
           }
         }
       }
@@ -531,6 +533,9 @@ void BlockMatcher::advance_column_sums(int y) {
   const int r = radius_, h = height_;
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
+  const bool fast = fast_row();
+  const int scale = column_scale();
+  const auto run_at = [fast](int lane) { return static_cast<std::size_t>(fast ? lane_at_position(lane) : lane); };
   const int k_new = y + r;
   const int y_new = std::min(k_new, h - 1);
   const int y_old = std::max(y - r - 1, 0);
@@ -552,10 +557,10 @@ void BlockMatcher::advance_column_sums(int y) {
       std::uint8_t* rc = ring + static_cast<std::size_t>(c) * lane_stride;
       const std::uint64_t lc = lrow[c];
       for (int i0 = 0; i0 < lanes; i0 += 8) {
-        std::uint16_t* sum = cs + column_position(i0);
+        std::uint16_t* sum = cs + run_at(i0);
         for (int i = 0; i < 8; ++i) {
           const auto pc = static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i0 + i]));
-          sum[i] = static_cast<std::uint16_t>(sum[i] + column_scale_ * (pc - rc[i0 + i]));
+          sum[i] = static_cast<std::uint16_t>(sum[i] + scale * (pc - rc[i0 + i]));
           rc[i0 + i] = pc;
         }
       }
@@ -1161,7 +1166,7 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     scan.right_old = right_.data() + static_cast<std::size_t>(y_old) * static_cast<std::size_t>(row_stride_r_);
   }
 #if defined(__AVX2__)
-  if (fast_ && w <= kFieldStride) {
+  if (fast_row()) {
     const FastRow f{align64(volume_ring_.data()), row_fields_.data(), align64(near_masks_.data()),
                     lane_positions_.data() + kRingGuard, options_.lr_max_diff, options_.subpixel,
                     options_.cost == MatchingCost::kCensus, d_min_valid_, d_max_valid_};
@@ -1180,7 +1185,7 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     else run.template operator()<4>();
     return;
   }
-  switch (lanes / 16) {
+  switch (portable_ ? 0 : lanes / 16) {
     case 2: scan_row_avx2<2>(scan); break;
     case 4: scan_row_avx2<4>(scan); break;
     case 6: scan_row_avx2<6>(scan); break;

@@ -1,13 +1,18 @@
 // Block matcher: exact disparities on synthetic fronto-parallel and slanted planes, the
-// checks (left-right, uniqueness, depth range), bad input, and Middlebury regression figures.
+// checks (left-right, uniqueness, depth range), bad input, Middlebury regression figures, and
+// the SIMD row scans against the portable one (the same maps and stats, bit for bit).
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
+#include "kestrel/sensor/projector.hpp"
 #include "kestrel/sensor/stereo_evaluation.hpp"
 #include "test_data.hpp"
 
@@ -208,6 +213,121 @@ TEST(BlockMatcher, MiddleburyBeatsStereoBmFigures) {
     const cv::Mat disp = BlockMatcher(o).match(p.left, p.right);
     const DisparityScore s = score_disparity(disp, p.truth_px);
     EXPECT_LT(s.bad_rate(), bm) << name << ": " << s.describe();
+  }
+}
+
+/// Pixels whose disparity values differ in any bit (+inf and NaN compare as bit patterns).
+int differing_pixels(const cv::Mat& a, const cv::Mat& b) {
+  int n = 0;
+  for (int y = 0; y < a.rows; ++y) {
+    for (int x = 0; x < a.cols; ++x) {
+      n += std::memcmp(&a.at<float>(y, x), &b.at<float>(y, x), sizeof(float)) != 0;
+    }
+  }
+  return n;
+}
+
+bool same_stats(const MatchStats& a, const MatchStats& b) {
+  return a.pixels == b.pixels && a.valid == b.valid && a.rejected_texture == b.rejected_texture &&
+         a.rejected_uniqueness == b.rejected_uniqueness && a.rejected_lr == b.rejected_lr &&
+         a.rejected_depth == b.rejected_depth && a.unreachable == b.unreachable;
+}
+
+// The AVX2 row scans (the tagged-cost one for 32/64 lanes, the general one for other lane
+// counts) must give the portable scan's maps and stats bit for bit. Without AVX2 both runs
+// take the portable path and the test only checks determinism.
+TEST(BlockMatcher, SimdAndPortableScansGiveIdenticalMaps) {
+  struct Pair {
+    std::string name;
+    cv::Mat left, right;
+  };
+  std::vector<Pair> pairs;
+  std::mt19937 rng(11);
+  for (const auto& [w, h] : {std::pair{97, 41}, std::pair{160, 90}, std::pair{1, 1},
+                             std::pair{3, 7}, std::pair{17, 3}, std::pair{300, 57}}) {
+    cv::Mat l(h, w, CV_8U), r(h, w, CV_8U);
+    cv::randu(l, 0, 256);
+    for (int y = 0; y < h; ++y) {  // the right view: the left one 5 px on, plus noise
+      for (int x = 0; x < w; ++x) {
+        r.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(
+            l.at<std::uint8_t>(y, std::min(w - 1, x + 5)) + static_cast<int>(rng() % 7) - 3);
+      }
+    }
+    pairs.push_back({"noise " + std::to_string(w) + "x" + std::to_string(h), l, r});
+    cv::Mat lb, rb;
+    cv::GaussianBlur(l, lb, cv::Size(0, 0), 1.5);
+    cv::GaussianBlur(r, rb, cv::Size(0, 0), 1.5);
+    pairs.push_back({"blurred noise " + std::to_string(w) + "x" + std::to_string(h), lb, rb});
+  }
+  {
+    cv::Mat l, r, truth;
+    plane_pair(texture(320, 120, 9), 4.0, 0.06, l, r, truth);
+    pairs.push_back({"slanted plane", l, r});
+  }
+  {  // rendered active and passive views of the fig. 2.7 scene, small
+    StereoExperimentOptions o;
+    o.width = 200;
+    o.height = 150;
+    o.f_px = 130.0;
+    o.matcher.max_disparity = 32;
+    const StereoExperimentResult e = run_stereo_experiment(o);
+    pairs.push_back({"rendered active", e.active.frame.left.gray, e.active.frame.right.gray});
+    pairs.push_back({"rendered passive", e.passive.frame.left.gray, e.passive.frame.right.gray});
+  }
+  struct Case {
+    int min_d, max_d, block;
+    MatchingCost cost;
+    Prefilter prefilter;
+    int lr, uniqueness;
+    double texture;
+    bool subpixel;
+  };
+  const MatchingCost sad = MatchingCost::kSad, census = MatchingCost::kCensus;
+  const Prefilter sobel = Prefilter::kXSobel, raw = Prefilter::kNone;
+  const Case cases[] = {
+      {0, 64, 9, sad, sobel, 1, 10, 0.25, true},    // the defaults
+      {0, 64, 9, sad, sobel, -1, 0, 0.0, true},     // no checks
+      {0, 64, 9, sad, sobel, -1, 0, 0.0, false},
+      {0, 64, 9, sad, sobel, 0, 0, 0.0, true},      // each check alone
+      {0, 64, 9, sad, sobel, 2, 0, 0.0, true},
+      {0, 64, 9, sad, sobel, 8, 35, 3.0, true},
+      {0, 64, 9, sad, sobel, 9, 10, 0.25, true},    // beyond the fast row's diagonal
+      {0, 64, 9, sad, sobel, -1, 100, 0.0, true},
+      {0, 16, 9, sad, sobel, 1, 10, 0.25, true},    // 32 lanes, half of them out of range
+      {0, 32, 9, sad, sobel, 1, 10, 0.25, true},
+      {0, 48, 9, sad, sobel, 1, 10, 0.25, true},
+      {5, 37, 9, sad, sobel, 1, 10, 0.25, true},    // a minimum disparity: unreachable pixels
+      {16, 80, 5, sad, sobel, 1, 10, 0.25, true},
+      {0, 100, 9, sad, sobel, 1, 10, 0.25, true},   // 128 lanes: the general AVX2 scan
+      {0, 64, 3, sad, sobel, 1, 10, 0.25, true},
+      {0, 64, 13, sad, sobel, 1, 10, 0.25, true},   // tagged costs too large for the fast row
+      {0, 64, 9, sad, raw, 1, 10, 0.25, true},      // raw intensities (costs up to 255)
+      {0, 64, 15, sad, raw, -1, 0, 0.0, true},
+      {0, 64, 9, census, sobel, 1, 10, 0.25, true},
+      {4, 29, 7, census, sobel, 2, 15, 0.5, true},
+  };
+  for (const Case& c : cases) {
+    BlockMatcherOptions o;
+    o.min_disparity = c.min_d;
+    o.max_disparity = c.max_d;
+    o.block_size = c.block;
+    o.cost = c.cost;
+    o.prefilter = c.prefilter;
+    o.lr_max_diff = c.lr;
+    o.uniqueness_ratio = c.uniqueness;
+    o.texture_threshold = c.texture;
+    o.subpixel = c.subpixel;
+    BlockMatcher simd(o), portable(o);
+    portable.set_portable(true);
+    for (const Pair& p : pairs) {
+      cv::Mat d_simd, d_portable;
+      const MatchStats s_simd = simd.match(p.left, p.right, d_simd);
+      const MatchStats s_portable = portable.match(p.left, p.right, d_portable);
+      EXPECT_EQ(differing_pixels(d_simd, d_portable), 0) << p.name << ", " << o.describe();
+      EXPECT_TRUE(same_stats(s_simd, s_portable))
+          << p.name << ", " << o.describe() << ": " << s_simd.describe() << " vs "
+          << s_portable.describe();
+    }
   }
 }
 

@@ -104,6 +104,11 @@ class BlockMatcher {
   MatchStats match(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity);
   [[nodiscard]] cv::Mat match(const cv::Mat& left, const cv::Mat& right);
 
+  /// Runs the portable row scan even where the AVX2 ones are compiled in, for tests and
+  /// benchmarks that compare them: the maps and stats are the same by design. Off by default.
+  void set_portable(bool portable) { portable_ = portable; }
+  [[nodiscard]] bool portable() const { return portable_; }
+
  private:
   void prepare(int width, int height);
   void preprocess(const cv::Mat& left, const cv::Mat& right);
@@ -121,6 +126,7 @@ class BlockMatcher {
   float d_min_valid_ = 0.0F, d_max_valid_ = kNoDisparity;  // from the depth range
   std::uint32_t texture_min_ = 0;  // least window sum of |central difference|; 0: no test
   bool fast_ = false;              // the tagged-cost AVX2 row (32 or 64 lanes) applies
+  bool portable_ = false;          // set_portable: the portable scan even with AVX2
   cv::Mat gray_l_, gray_r_;                                 // 8-bit grey inputs (converted)
   std::vector<std::uint8_t> left_, right_;                  // padded, prefiltered rows
   std::vector<std::uint64_t> census_l_, census_r_;          // padded census signatures
@@ -135,8 +141,8 @@ class BlockMatcher {
   // Fast row (AVX2, 32 or 64 lanes): its column sums are scaled by column_scale_ and stored
   // in its lane order; box costs of the last pixels, the per-pixel fields the scan leaves for
   // the finish, the winner's neighbour masks and the slot position of each lane.
-  [[nodiscard]] std::size_t column_position(int lane) const;
-  int column_scale_ = 1;
+  [[nodiscard]] bool fast_row() const;     // fast_, not set_portable, width within its limit
+  [[nodiscard]] int column_scale() const;  // 2^tag bits on the fast row, else 1
   std::vector<std::uint16_t> volume_ring_, row_fields_, near_masks_;
   std::vector<std::int16_t> lane_positions_;
 };
