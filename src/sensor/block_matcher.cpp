@@ -407,7 +407,23 @@ void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
     const int cr = options_.census_window / 2;
     const auto census_row = [&](const cv::Mat& img, int y, std::uint64_t* out, int stride,
                                 int pad) {
+      // Columns whose window lies inside the row: one pass per neighbour, in the signature's
+      // bit order, without clamps (a loop that vectorises); the others one at a time.
+      const int lo = std::min(stride, pad + cr), hi = std::max(lo, std::min(stride, pad + w - cr));
+      std::fill(out + lo, out + hi, std::uint64_t{0});
+      const std::uint8_t* centres = img.ptr<std::uint8_t>(y) + (lo - pad);
+      for (int dy = -cr; dy <= cr; ++dy) {
+        const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1)) + (lo - pad);
+        for (int dx = -cr; dx <= cr; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          for (int i = 0; i < hi - lo; ++i) {
+            out[lo + i] = (out[lo + i] << 1) | static_cast<std::uint64_t>(row[i + dx] < centres[i]);
+          }
+        }
+      }
       for (int c = 0; c < stride; ++c) {
+        if (c == lo) c = hi;  // the interior is done
+        if (c >= stride) break;
         const int x = clampi(c - pad, 0, w - 1);
         const int centre = pixel(img, y, x);
         std::uint64_t bits = 0;
@@ -552,18 +568,23 @@ void BlockMatcher::advance_column_sums(int y) {
     const std::uint64_t* rrow = census_r_.data() + static_cast<std::size_t>(y_new) * static_cast<std::size_t>(row_stride_r_);
     const int slot = k_new % block;  // the slot of row y-r-1 (same residue)
     std::uint8_t* ring = cost_ring_.data() + static_cast<std::size_t>(slot) * static_cast<std::size_t>(cols) * lane_stride;
+    // The Hamming distances first (scalar popcnt), then the column and ring updates in loops
+    // that vectorise.
+    std::array<std::uint8_t, 1024> distances{};  // lanes <= 1024 (validate)
     for (int c = 0; c < cols; ++c) {
       std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * lane_stride;
       std::uint8_t* rc = ring + static_cast<std::size_t>(c) * lane_stride;
       const std::uint64_t lc = lrow[c];
+      for (int i = 0; i < lanes; ++i) {
+        distances[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i]));
+      }
       for (int i0 = 0; i0 < lanes; i0 += 8) {
         std::uint16_t* sum = cs + run_at(i0);
         for (int i = 0; i < 8; ++i) {
-          const auto pc = static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i0 + i]));
-          sum[i] = static_cast<std::uint16_t>(sum[i] + scale * (pc - rc[i0 + i]));
-          rc[i0 + i] = pc;
+          sum[i] = static_cast<std::uint16_t>(sum[i] + scale * (distances[static_cast<std::size_t>(i0 + i)] - rc[i0 + i]));
         }
       }
+      std::memcpy(rc, distances.data(), lane_stride);
     }
   }
 }

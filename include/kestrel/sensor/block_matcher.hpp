@@ -138,7 +138,7 @@ class BlockMatcher {
   std::vector<std::uint16_t> right_min_;                    // W + lanes: right view's best
   std::vector<std::int32_t> row_disp_;                      // winning lane per u, -1 none
   std::vector<std::uint8_t> row_state_;
-  // Fast row (AVX2, 32 or 64 lanes): its column sums are scaled by column_scale_ and stored
+  // Fast row (AVX2, 32 or 64 lanes): its column sums are scaled by column_scale() and stored
   // in its lane order; box costs of the last pixels, the per-pixel fields the scan leaves for
   // the finish, the winner's neighbour masks and the slot position of each lane.
   [[nodiscard]] bool fast_row() const;     // fast_, not set_portable, width within its limit
