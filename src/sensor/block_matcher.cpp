@@ -390,9 +390,12 @@ void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
           return static_cast<std::uint8_t>(clampi(g, -cap, cap) + cap);
         };
         o[0] = at(0);
+        // In int16 (|g| <= 1020), so that it vectorises 16 pixels to a register.
+        const auto cap16 = static_cast<std::int16_t>(cap);
         for (int x = 1; x < w - 1; ++x) {
-          const int g = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
-          o[x] = static_cast<std::uint8_t>(std::min(std::max(g, -cap), cap) + cap);
+          const auto g = static_cast<std::int16_t>((r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) +
+                                                   (r2[x + 1] - r2[x - 1]));
+          o[x] = static_cast<std::uint8_t>(std::min<std::int16_t>(std::max<std::int16_t>(g, static_cast<std::int16_t>(-cap16)), cap16) + cap16);
         }
         if (w > 1) o[w - 1] = at(w - 1);
       }
