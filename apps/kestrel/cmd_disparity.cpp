@@ -17,6 +17,7 @@
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/gpu/stereo_matcher.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/io/pfm.hpp"
@@ -34,6 +35,7 @@ struct DisparityArgs {
   sensor::BlockMatcherOptions options;
   std::string cost = "sad";
   std::string prefilter = "xsobel";
+  std::string backend = "cpu";
   bool no_subpixel = false;
   bool force = false;
 };
@@ -100,6 +102,12 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
   if (args.prefilter == "none") args.options.prefilter = sensor::Prefilter::kNone;
   else if (args.prefilter != "xsobel") throw InputError("--prefilter: expected xsobel or none");
   if (args.no_subpixel) args.options.subpixel = false;
+  gpu::Backend backend = gpu::Backend::kCpu;
+  try {
+    backend = gpu::backend_from_string(args.backend);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("--backend: ") + e.what());
+  }
   try {
     args.options.validate();
   } catch (const std::invalid_argument& e) {
@@ -133,7 +141,8 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
     std::cerr << "kestrel disparity: rectified: f " << rig.f << " px, baseline " << rig.baseline_m
               << " m, c (" << rig.cu << ", " << rig.cv << ")\n";
   }
-  sensor::BlockMatcher matcher(args.options, calib.rig);
+  gpu::StereoMatcher matcher(args.options, calib.rig, backend);
+  std::cerr << "kestrel disparity: backend " << gpu::to_string(matcher.backend()) << "\n";
   cv::Mat disparity;
   const auto t0 = std::chrono::steady_clock::now();
   const sensor::MatchStats stats = matcher.match(l, r, disparity);
@@ -189,6 +198,10 @@ void add_disparity_command(CLI::App& app) {
   cmd->add_option("--min-depth", o.min_depth_m, "drop nearer points [m] (needs --calib)");
   cmd->add_option("--max-depth", o.max_depth_m, "drop farther points [m] (needs --calib)");
   cmd->add_flag("--no-subpixel", args->no_subpixel, "integer disparities");
+  cmd->add_option("--backend", args->backend,
+                  "block matcher: cpu, cuda (an error without a CUDA device) or auto (cuda "
+                  "when there is one); see docs/gpu.md")
+      ->capture_default_str();
   cmd->add_option("--options", args->options_file, "block matcher options YAML (flags given override it)");
   cmd->add_option("--out", args->out, "disparity PFM")->required();
   cmd->add_option("--depth", args->depth_out, "depth PNG (default with --calib: OUT with .depth.png)");
