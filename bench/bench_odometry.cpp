@@ -1,12 +1,17 @@
 // Microbenchmarks of the image kernels and of the direct tracker on a 640x480 rendered pair.
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
+#include <filesystem>
 #include <random>
+#include <vector>
 
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/pyramid.hpp"
 #include "kestrel/image/undistortion.hpp"
+#include "kestrel/io/camera_io.hpp"
+#include "kestrel/io/tum_rgbd.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "../tests/odometry/synthetic_rgbd.hpp"
 
@@ -138,5 +143,69 @@ void BM_TrackAgainstKeyframeWithDepthResidual(benchmark::State& s) {
   }
 }
 BENCHMARK(BM_TrackAgainstKeyframeWithDepthResidual)->Arg(6000)->Unit(benchmark::kMillisecond);
+
+// The real sequence of issue 3 (fr1/rpy part 1, 250 frames, fast rotation, motion blur), decoded
+// once into memory: one iteration tracks all of it with a fresh tracker, so the CPU time per
+// frame includes undistortion, keyframe switches, failures and fallbacks in their real
+// proportions. Arg 0: the default options; 1: without the geometric fallback.
+struct RealSequence {
+  std::vector<odometry::RgbdFrame> frames;
+  std::string error;
+};
+const RealSequence& fr1_rpy() {
+  static const RealSequence seq = [] {
+    RealSequence out;
+    const char* env = std::getenv("KESTREL_DATA_DIR");
+    const std::filesystem::path data =
+        (env != nullptr && *env != '\0') ? std::filesystem::path(env)
+                                          : std::filesystem::path(KESTREL_DEFAULT_DATA_DIR);
+    const auto folder = data / "tum/rgbd_dataset_freiburg1_rpy_part1";
+    if (!std::filesystem::exists(folder)) {
+      out.error = "shared data not found: " + folder.string();
+      return out;
+    }
+    const io::TumRgbdSequence tum(folder);
+    for (std::size_t i = 0; i < tum.size(); ++i) {
+      const io::RgbdImages im = tum.load(i);
+      out.frames.push_back({im.t_ns, im.bgr, im.depth_m, im.depth_t_ns});
+    }
+    return out;
+  }();
+  return seq;
+}
+
+void BM_TrackRealSequence(benchmark::State& s) {
+  const RealSequence& seq = fr1_rpy();
+  if (!seq.error.empty()) {
+    s.SkipWithError(seq.error.c_str());
+    return;
+  }
+  odometry::DirectTrackerOptions o;
+  if (s.range(0) == 1) o.geometric_fallback = false;
+  const PinholeCamera cam = *io::camera_preset("fr1");
+  int failures = 0, fallbacks = 0, keyframes = 0;
+  long iterations = 0;
+  for (auto _ : s) {
+    odometry::DirectTracker tracker(cam, o);
+    failures = fallbacks = keyframes = 0;
+    iterations = 0;
+    for (const auto& f : seq.frames) {
+      const odometry::TrackResult r = tracker.track(f);
+      failures += r.ok() ? 0 : 1;
+      fallbacks += r.geometric_fallback ? 1 : 0;
+      keyframes += r.new_keyframe ? 1 : 0;
+      iterations += r.iterations;
+    }
+  }
+  const auto n = static_cast<double>(seq.frames.size());
+  // CPU seconds per frame (printed with an SI prefix: "8.1m" = 8.1 ms).
+  s.counters["per_frame"] = benchmark::Counter(n, benchmark::Counter::kIsIterationInvariantRate |
+                                                     benchmark::Counter::kInvert);
+  s.counters["failures"] = failures;
+  s.counters["fallbacks"] = fallbacks;
+  s.counters["keyframes"] = keyframes;
+  s.counters["iters_per_frame"] = static_cast<double>(iterations) / n;
+}
+BENCHMARK(BM_TrackRealSequence)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -31,6 +31,7 @@ void visit_fields(DirectTrackerOptions& o, Visitor&& v) {
   v("use_depth_residual", o.use_depth_residual);
   v("depth_residual_weight", o.depth_residual_weight);
   v("min_depth_sigma_m", o.min_depth_sigma_m);
+  v("depth_noise_per_m", o.depth_noise_per_m);
   v("depth_residual_max_relative_spread", o.depth_residual_max_relative_spread);
   v("compensate_depth_time_offset", o.compensate_depth_time_offset);
   v("update_norm_tolerance", o.update_norm_tolerance);
@@ -44,6 +45,8 @@ void visit_fields(DirectTrackerOptions& o, Visitor&& v) {
   v("keyframe_max_rotation_deg", o.keyframe_max_rotation_deg);
   v("keyframe_max_translation_rel", o.keyframe_max_translation_rel);
   v("retry_previous_frame", o.retry_previous_frame);
+  v("geometric_fallback", o.geometric_fallback);
+  v("max_level_jump_px", o.max_level_jump_px);
   v("min_overlap", o.min_overlap);
   v("min_inlier_ratio", o.min_inlier_ratio);
   v("max_sigma", o.max_sigma);
@@ -88,6 +91,10 @@ void DirectTrackerOptions::validate() const {
     fail("depth_residual_weight", "must be >= 0 and finite");
   }
   finite_pos("min_depth_sigma_m", min_depth_sigma_m);
+  if (!(std::isfinite(depth_noise_per_m) && depth_noise_per_m >= 0.0)) {
+    fail("depth_noise_per_m", "must be >= 0 and finite");
+  }
+  finite_pos("max_level_jump_px", max_level_jump_px);
   finite_pos("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
   if (!(update_norm_tolerance >= 0.0)) fail("update_norm_tolerance", "must be >= 0");
   if (!(update_change_tolerance >= 0.0)) fail("update_change_tolerance", "must be >= 0");

@@ -6,6 +6,8 @@
 #include <iostream>
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/interpolation.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
@@ -146,15 +148,23 @@ TEST_P(KnownMotion, RecoveredFromRenderedPair) {
   const SE3 T_world_ref = motion(0.05, 0.02, 0, 0, 0, 0);
   const auto ref = render(room, cam, T_world_ref);
   const auto cur = render(room, cam, T_world_ref * mc.T_ref_cur);
-  DirectTracker tracker(cam);
-  const TrackResult r = tracker.align_pair(ref, cur);
-  ASSERT_TRUE(r.ok()) << mc.name << ": " << r.failure_detail;
-  EXPECT_LT(translation_error_m(r.T_ref_cur, mc.T_ref_cur), 1e-3) << mc.name;
-  EXPECT_LT(rotation_error_deg(r.T_ref_cur, mc.T_ref_cur), 0.05) << mc.name;
-  EXPECT_NEAR(r.gain, 0.0, 1e-2);
-  EXPECT_GT(r.inlier_ratio, 0.6);  // points that leave the image count as outliers
-  EXPECT_TRUE(r.covariance.allFinite());
-  EXPECT_GT(r.covariance.diagonal().minCoeff(), 0.0);
+  // The photometric alignment, and the joint photometric + point-to-plane one that the
+  // geometric fallback runs (on exact rendered depth: its sigma rests on the noise-model floor).
+  for (const bool depth_residual : {false, true}) {
+    DirectTrackerOptions o;
+    o.use_depth_residual = depth_residual;
+    DirectTracker tracker(cam, o);
+    const TrackResult r = tracker.align_pair(ref, cur);
+    const std::string what = std::string(mc.name) + (depth_residual ? " (with depth)" : "");
+    ASSERT_TRUE(r.ok()) << what << ": " << r.failure_detail;
+    EXPECT_FALSE(r.geometric_fallback) << what;
+    EXPECT_LT(translation_error_m(r.T_ref_cur, mc.T_ref_cur), 1e-3) << what;
+    EXPECT_LT(rotation_error_deg(r.T_ref_cur, mc.T_ref_cur), 0.05) << what;
+    EXPECT_NEAR(r.gain, 0.0, 1e-2);
+    EXPECT_GT(r.inlier_ratio, 0.6);  // points that leave the image count as outliers
+    EXPECT_TRUE(r.covariance.allFinite());
+    EXPECT_GT(r.covariance.diagonal().minCoeff(), 0.0);
+  }
 }
 INSTANTIATE_TEST_SUITE_P(Cases, KnownMotion, ::testing::Range(0, 5));
 
@@ -194,6 +204,41 @@ TEST(DirectTracker, MovingOccluderDoesNotBiasTheEstimate) {
   EXPECT_LT(r.inlier_ratio, 0.99);  // the occluder's pixels were rejected
 }
 
+// Motion blur: the current frame's image smeared along its rows by a 41-pixel box (an eighth of
+// the width: a fast pan during the exposure); its depth stays sharp, as a structured-light sensor
+// gives it. The photometric alignment alone fails on such a pair (high residual, and its estimate
+// is off by degrees); the geometric fallback tracks it, and says so.
+TEST(DirectTracker, BlurredFrameIsTrackedByTheGeometricFallback) {
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  const SE3 T = motion(0.01, 0.0, 0.005, 0.0, 2.0, 0.5);
+  const auto ref = render(room, cam, SE3());
+  auto cur = render(room, cam, T);
+  cv::blur(cur.image, cur.image, cv::Size(41, 1));
+
+  DirectTrackerOptions photometric_only;
+  photometric_only.geometric_fallback = false;
+  const TrackResult p = DirectTracker(cam, photometric_only).align_pair(ref, cur);
+  EXPECT_EQ(p.failure, TrackFailure::kHighResidual) << "sigma " << p.sigma;
+
+  DirectTracker tracker(cam);
+  const TrackResult r = tracker.align_pair(ref, cur);
+  ASSERT_TRUE(r.ok()) << r.failure_detail;
+  EXPECT_TRUE(r.geometric_fallback);
+  // The images agree only on a coarse level (the blur is ~2.6 pixels on level 4).
+  EXPECT_GT(r.photometric_level, 0);
+  EXPECT_LE(r.sigma, DirectTrackerOptions{}.max_sigma);
+  EXPECT_GT(r.depth_inlier_ratio, 0.5);
+  EXPECT_LT(translation_error_m(r.T_ref_cur, T), 3e-3);
+  EXPECT_LT(rotation_error_deg(r.T_ref_cur, T), 0.1);
+  std::cout << "blurred frame: photometric only " << to_string(p.failure) << " (sigma " << p.sigma
+            << ", " << translation_error_m(p.T_ref_cur, T) * 1e3 << " mm, "
+            << rotation_error_deg(p.T_ref_cur, T) << " deg); fallback: sigma " << r.sigma
+            << " on level " << r.photometric_level << ", "
+            << translation_error_m(r.T_ref_cur, T) * 1e3 << " mm, "
+            << rotation_error_deg(r.T_ref_cur, T) << " deg\n";
+}
+
 TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   const PinholeCamera cam({525.0, 525.0, 319.5, 239.5, 640, 480});
   const auto room = test::make_room();
@@ -202,6 +247,7 @@ TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   std::normal_distribution<float> n01(0.0F, 1.0F);
   DirectTracker tracker(cam);
   int within_target = 0;
+  double sum_sq = 0.0, predicted_sum_sq = 0.0;
   double max_t_err = 0.0;
   for (int k = 0; k < 100; ++k) {
     RgbdFrame f;  // 100 frames of the still camera
@@ -223,16 +269,25 @@ TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
     ASSERT_TRUE(r.ok()) << "frame " << k << ": " << r.failure_detail;
     const double t_err = r.T_world_cam.translation().norm();
     within_target += t_err < 1e-4 ? 1 : 0;
+    sum_sq += t_err * t_err;
+    predicted_sum_sq += r.covariance.diagonal().head<3>().sum();  // E|t|^2 by the covariance
     max_t_err = std::max(max_t_err, t_err);
     // REGRESSION GUARD on translation, not the issue's target: issue target < 0.1 mm per frame
-    // not yet met: measured max 0.114 mm, 4 of 100 frames above 0.1 mm (docs/odometry.md).
+    // not met: measured max 0.114 mm, 4 of 100 frames above 0.1 mm (docs/odometry.md). It is the
+    // statistical floor of one frame-to-keyframe alignment at this noise (checked below against
+    // the covariance), not a bias: other noise seeds give a max of 0.12-0.17 mm.
     EXPECT_LT(t_err, 1.3e-4) << "frame " << k;
     EXPECT_LT(rotation_error_deg(r.T_world_cam, SE3()), 0.01) << "frame " << k;  // issue target
   }
   RecordProperty("max_translation_error_m", std::to_string(max_t_err));
+  const double rms = std::sqrt(sum_sq / 99), predicted_rms = std::sqrt(predicted_sum_sq / 99);
   std::cout << "still camera: " << within_target << "/100 frames < 0.1 mm, max " << max_t_err * 1e3
-            << " mm\n";
+            << " mm, rms " << rms * 1e3 << " mm (covariance: " << predicted_rms * 1e3 << " mm)\n";
   EXPECT_GE(within_target, 90);  // regression guard (measured 96)
+  // Consistency: the errors are those the reported covariance predicts (the keyframe's own noise,
+  // shared by all frames, adds to the spread), not a convergence defect.
+  EXPECT_GT(rms, 0.5 * predicted_rms);
+  EXPECT_LT(rms, 2.0 * predicted_rms);
 }
 
 TEST(DirectTracker, SequenceWithKeyframesFollowsASmoothMotion) {

@@ -68,7 +68,8 @@ struct TrackResult {
 
   bool converged = false;   ///< the finest level stopped by a tolerance, not the cap
   int iterations = 0;       ///< Gauss-Newton iterations over all levels
-  double sigma = 0.0;       ///< final robust sigma (intensity units, [0, 1] images)
+  double sigma = 0.0;       ///< final robust sigma (intensity units, [0, 1] images) ...
+  int photometric_level = 0;  ///< ... on this pyramid level (> finest_level: a blurred frame)
   double depth_sigma = 0.0; ///< final robust sigma of the geometric residuals (m), 0 if unused
   int depth_points = 0;     ///< reference points with a geometric residual on that level
   double depth_inlier_ratio = 0.0;  ///< geometric residuals within c sigma / points with a normal
@@ -79,6 +80,10 @@ struct TrackResult {
   double bias = 0.0;
   bool new_keyframe = false;  ///< this frame became the reference for the next ones
   bool retried_previous = false;  ///< aligned to the previous frame after the keyframe failed
+  /// The photometric alignment failed (blur) or a finer level jumped away from the coarser
+  /// one's estimate, and the geometric fallback was accepted by its own health checks
+  /// (DirectTrackerOptions::geometric_fallback).
+  bool geometric_fallback = false;
   std::string failure_detail;  ///< human-readable, empty when ok
 };
 

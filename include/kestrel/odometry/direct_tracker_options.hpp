@@ -48,6 +48,10 @@ struct DirectTrackerOptions {
   /// Floor of the geometric robust sigma (m): below ~the TUM PNG's quantisation it is noise
   /// of the estimate, not of the sensor.
   double min_depth_sigma_m = 5e-4;
+  /// ... nor below the sensor's depth noise sigma_z = depth_noise_per_m * z^2 at the level's
+  /// median depth z: Kinect v1's 1.425e-3 /m (Khoshelham & Elberink, "Accuracy and resolution
+  /// of Kinect depth data", Sensors 2012). 0 = no such floor.
+  double depth_noise_per_m = 1.425e-3;
   /// A depth sample of the current frame is used only if its 2x2 neighbourhood spreads less
   /// than this fraction of its depth (no interpolation across occlusion boundaries).
   double depth_residual_max_relative_spread = 0.05;
@@ -79,6 +83,22 @@ struct DirectTrackerOptions {
   /// When the alignment to the keyframe fails, try the previous frame (closer in time, and
   /// blurred alike in a fast motion) before reporting a failure.
   bool retry_previous_frame = false;
+  /// Geometric fallback (motion blur: depth blurs far less than the colour image): when the
+  /// photometric alignment fails with a high residual, or a finer pyramid level moves the
+  /// estimate farther than max_level_jump_px from the coarser level's, the pair is aligned again
+  /// with the point-to-plane residual joining the photometric one (use_depth_residual's model).
+  /// That result is accepted only by its own health checks: overlap, motion, the geometric
+  /// inlier ratio and point count, and the photometric sigma on the finest level where it passes
+  /// max_sigma (a blurred image agrees with the keyframe at the scales the blur left); a pair
+  /// without overlap, or whose images do not match on any level, still fails. A frame that
+  /// matches only on a coarser level (blurred) becomes the keyframe: the next frames, blurred
+  /// alike, align better to it. TrackResult::geometric_fallback marks it. Depth input only (a
+  /// tracker fed by disparity has no depth maps), and not with use_depth_residual (the
+  /// alignment has the geometric residual already).
+  bool geometric_fallback = true;
+  /// A level's estimate farther than this from the coarser level's (in pixels of the coarser
+  /// level: rotation f*|w| plus translation f*|t|/median depth) triggers the fallback.
+  double max_level_jump_px = 2.0;
 
   // --- failure detection ---
   double min_overlap = 0.3;       ///< fewer of the points inside the image: failure
