@@ -1,6 +1,7 @@
 // `kestrel run --config FILE.yaml`: the real-time pipeline (source -> depth -> tracker ->
-// fusion -> controller, one thread each) over a recorded EuRoC folder; prints per-stage
-// statistics and the end-to-end latency, writes the fused trajectory (TUM).
+// fusion -> controller, one thread each) over a recorded EuRoC folder or the live V4L2 stereo
+// camera; prints per-stage statistics and the end-to-end latency, writes the fused trajectory
+// (TUM; with the camera, which brings no IMU, the odometry's own trajectory).
 #include <atomic>
 #include <csignal>
 #include <filesystem>
@@ -13,6 +14,7 @@
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/driver/v4l2_camera.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/pipeline/pipeline.hpp"
@@ -50,11 +52,13 @@ void print_report(const pipeline::PipelineReport& r) {
   for (const auto& s : r.stages) {
     const auto p = pipeline::summarize(s.processing_ms);
     const auto l = pipeline::summarize(s.latency_ms);
-    std::cout << std::left << std::setw(10) << s.name << std::right << std::setw(6) << s.in
-              << std::setw(6) << s.out << std::setw(6) << s.dropped << std::setw(6) << s.failed
-              << std::setw(9) << p.p50 << std::setw(9) << p.p95 << std::setw(9) << p.max
-              << std::setw(10) << s.rate_hz() << std::setw(10) << l.p50 << std::setw(10) << l.p95
-              << std::setw(10) << l.max << "\n";
+    // A fusion that only passes the odometry through is marked in its row, not just below.
+    const bool marked = r.fusion_pass_through && s.name == "fusion";
+    std::cout << std::left << std::setw(10) << (marked ? s.name + "*" : s.name) << std::right
+              << std::setw(6) << s.in << std::setw(6) << s.out << std::setw(6) << s.dropped
+              << std::setw(6) << s.failed << std::setw(9) << p.p50 << std::setw(9) << p.p95
+              << std::setw(9) << p.max << std::setw(10) << s.rate_hz() << std::setw(10) << l.p50
+              << std::setw(10) << l.p95 << std::setw(10) << l.max << "\n";
   }
   const auto e = pipeline::summarize(r.end_to_end_ms);
   const double fps = r.wall_s > 0.0 ? static_cast<double>(r.stereo_pairs) / r.wall_s : 0.0;
@@ -64,14 +68,39 @@ void print_report(const pipeline::PipelineReport& r) {
             << " states: p50 " << e.p50 << " ms, p95 " << e.p95 << " ms, max " << e.max << " ms\n"
             << "pairs " << r.stereo_pairs << ", IMU samples " << r.imu_samples << ", wall "
             << std::setprecision(3) << r.wall_s << " s (" << std::setprecision(1) << fps
-            << " pairs/s overall)" << (r.interrupted ? ", INTERRUPTED" : "") << "\n"
-            << "fusion options used: " << r.fusion_options.describe() << "\n"
-            << "fusion: " << r.fusion_counters.describe() << "\n";
+            << " pairs/s overall)" << (r.interrupted ? ", INTERRUPTED" : "") << "\n";
+  if (r.camera) {
+    std::cout << "camera: " << r.camera_info.describe()
+              << "\n  format: " << r.camera_format.describe()
+              << "\n  capture: " << r.camera->describe()
+              << "\n  (source fail = frames dropped as truncated, corrupted or out of order)\n";
+  }
+  if (r.fusion_pass_through) {
+    std::cout << "fusion* PASS-THROUGH: the camera source has no IMU, so no EKF ran; the states "
+                 "are the odometry's rectified-left-camera poses (world = that camera at the "
+                 "first tracked pair), not fused body poses; fail = pairs without a track\n";
+  } else {
+    std::cout << "fusion options used: " << r.fusion_options.describe() << "\n"
+              << "fusion: " << r.fusion_counters.describe() << "\n";
+  }
+}
+
+// The camera opened (and closed again) before any output is claimed: a missing, busy or
+// foreign device is the driver's own error, naming the config field and the device path.
+void check_camera(const fs::path& config, const std::string& device) {
+  try {
+    const driver::V4l2Camera probe(device);
+  } catch (const driver::DeviceError& e) {
+    throw InputError(config, "camera.device", e.what());
+  }
 }
 
 void run_run(const RunArgs& a) {
   pipeline::PipelineOptions options = pipeline::PipelineOptions::load_yaml(a.config);
-  if (!fs::exists(options.input)) {  // before any output folder is claimed
+  const bool camera = options.source == pipeline::Source::kCamera;
+  if (camera) {
+    check_camera(a.config, options.camera.device);
+  } else if (!fs::exists(options.input)) {  // before any output folder is claimed
     throw InputError(a.config.string() + ": input folder " + options.input.string() +
                      " does not exist");
   }
@@ -90,7 +119,9 @@ void run_run(const RunArgs& a) {
   const auto previous = std::signal(SIGINT, on_sigint);
   pipeline::PipelineReport report;
   try {
-    report = pipeline::run_pipeline(options, &g_stop);
+    pipeline::PipelineEnvironment environment;
+    environment.log = &std::cerr;  // the camera's dropped frames
+    report = pipeline::run_pipeline(options, &g_stop, environment);
   } catch (...) {
     std::signal(SIGINT, previous);
     throw;
@@ -104,9 +135,23 @@ void run_run(const RunArgs& a) {
   }
   io::write_tum_trajectory(out_file, trajectory, kCommand, a.force);
   print_report(report);
-  std::cout << "fused trajectory (body/IMU frame, " << trajectory.size()
-            << " poses): " << out_file.string() << "\n"
-            << "load average after the run: " << load_average() << std::endl;
+  if (report.fusion_pass_through) {
+    std::cout << "odometry trajectory (rectified left camera, NOT fused, " << trajectory.size()
+              << " poses): " << out_file.string() << "\n";
+  } else {
+    std::cout << "fused trajectory (body/IMU frame, " << trajectory.size()
+              << " poses): " << out_file.string() << "\n";
+  }
+  std::cout << "load average after the run: " << load_average() << std::endl;
+  // A camera that went away or stalled ended the run cleanly (trajectory written), but not as
+  // asked: the exit status says so, as `kestrel capture` does.
+  if (report.camera && !report.camera->ended_as_asked()) {
+    throw InputError("run: camera " + options.camera.device + " " +
+                     std::string(driver::capture_stop_name(report.camera->stop)) + " after " +
+                     std::to_string(report.camera->frames) +
+                     " frames: " + report.camera->stop_message + "; the trajectory so far is in " +
+                     out_file.string());
+  }
 }
 
 }  // namespace
@@ -116,7 +161,8 @@ void add_run_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "run",
       "Run the real-time pipeline (source -> depth -> tracker -> fusion -> controller, "
-      "one thread each, bounded queues) over a recorded EuRoC folder");
+      "one thread each, bounded queues) over a recorded EuRoC folder or the V4L2 stereo "
+      "camera (source: camera)");
   cmd->add_option("--config", args->config, "Pipeline config YAML (see docs/pipeline.md)")
       ->required();
   cmd->add_option("--out", args->out,

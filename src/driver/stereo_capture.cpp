@@ -106,7 +106,8 @@ CaptureReport capture_stereo(V4l2Camera& camera, const StreamFormat& format,
   StereoMosaic mosaic;
   std::optional<TimeNs> first_seen;
   for (;;) {
-    if (hooks.interrupt != nullptr && hooks.interrupt->load()) {
+    if ((hooks.interrupt != nullptr && hooks.interrupt->load()) ||
+        (hooks.stop_requested && hooks.stop_requested())) {
       report.stop = CaptureStop::kInterrupted;
       break;
     }

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <deque>
 #include <exception>
+#include <limits>
 #include <mutex>
 #include <thread>
 #include <variant>
 
+#include "camera_source.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
@@ -47,8 +49,10 @@ struct StateItem {
 struct Context {
   const PipelineOptions& options;
   const std::atomic<bool>* stop;
-  const io::EurocSequence& sequence;
-  std::size_t frames = 0;
+  const io::EurocSequence* sequence;  // folder source, else null
+  CameraFrameSource* camera;          // camera source, else null
+  std::ostream* log;                  // the camera's problem frames
+  std::size_t frames = 0;             // folder source: pairs to emit
   sensor::StereoRectifier& rectifier;
   sensor::BlockMatcher& matcher;
   odometry::DirectTracker& tracker;
@@ -58,7 +62,8 @@ struct Context {
   BoundedQueue<DisparityItem> disparity_q;
   BoundedQueue<FusionInput> fusion_q;
   BoundedQueue<StateItem> state_q;
-  std::atomic<int> fusion_producers{2};  // source (IMU) and tracker
+  // Source (IMU; a camera source sends none but closes its share too) and tracker.
+  std::atomic<int> fusion_producers{2};
   std::atomic<bool> abort{false};
   std::mutex error_mutex;
   std::exception_ptr error;
@@ -67,13 +72,16 @@ struct Context {
   std::size_t stereo_pairs = 0;
   fusion::FusionCounters fusion_counters;
   std::vector<fusion::FusedState> states;
+  std::optional<driver::CaptureReport> camera_report;
 
-  Context(const PipelineOptions& o, const std::atomic<bool>* s, const io::EurocSequence& seq,
-          sensor::StereoRectifier& r, sensor::BlockMatcher& m, odometry::DirectTracker& t,
-          const fusion::FusionOptions& f)
+  Context(const PipelineOptions& o, const std::atomic<bool>* s, const io::EurocSequence* seq,
+          CameraFrameSource* cam, std::ostream* l, sensor::StereoRectifier& r,
+          sensor::BlockMatcher& m, odometry::DirectTracker& t, const fusion::FusionOptions& f)
       : options(o),
         stop(s),
         sequence(seq),
+        camera(cam),
+        log(l),
         rectifier(r),
         matcher(m),
         tracker(t),
@@ -115,17 +123,18 @@ bool wait_for_data_time(Context& c, TimeNs t_ns, TimeNs t0_ns, Clock::time_point
   return !c.stopping();
 }
 
-void source_stage(Context& c, StageStats& st) {
-  const TimeNs t0 = c.sequence.stereo_timestamp(0);
+void folder_source_stage(Context& c, StageStats& st) {
+  const io::EurocSequence& sequence = *c.sequence;
+  const TimeNs t0 = sequence.stereo_timestamp(0);
   // IMU from shortly before the first pair (the static initialisation's window), not the
   // whole recording: EuRoC parts hold the IMU of the full sequence.
   const TimeNs imu_start = t0 - static_cast<TimeNs>((c.fusion_options.static_init_s + 0.1) * 1e9);
-  io::ImuCsvReader imu(c.sequence.imu_csv());
+  io::ImuCsvReader imu(sequence.imu_csv());
   io::ImuSample sample;
   bool have_imu = imu.next(sample);
   const auto wall0 = Clock::now();
   for (std::size_t i = 0; i < c.frames && !c.stopping(); ++i) {
-    const TimeNs t = c.sequence.stereo_timestamp(i);
+    const TimeNs t = sequence.stereo_timestamp(i);
     while (have_imu && sample.t_ns <= t) {
       if (sample.t_ns >= imu_start) {
         if (!wait_for_data_time(c, sample.t_ns, t0, wall0)) break;
@@ -136,7 +145,7 @@ void source_stage(Context& c, StageStats& st) {
     if (!wait_for_data_time(c, t, t0, wall0)) break;
     // Decoding stands for the camera driver: the pair "arrives" once it is an image.
     const auto start = Clock::now();
-    io::StereoImages images = c.sequence.load_stereo(i);
+    io::StereoImages images = sequence.load_stereo(i);
     const auto arrived = Clock::now();
     ++st.in;
     st.add_processing(start, arrived);
@@ -148,6 +157,39 @@ void source_stage(Context& c, StageStats& st) {
   }
   c.frame_q.close();
   c.fusion_producer_done();
+}
+
+// The live camera: frames as the driver delivers them (no pacing: the camera is the clock).
+// Its faults end or skip as the capture loop decides; an unplugged or stalled camera ends the
+// source like the end of a folder, so the stages drain and the run returns with the report.
+void camera_source_stage(Context& c, StageStats& st) {
+  const driver::CaptureReport report = c.camera->run(
+      c.options.max_frames, [&c] { return c.stopping(); },
+      [&](TimeNs t_ns, cv::Mat left, cv::Mat right, Clock::time_point start,
+          Clock::time_point arrived) {
+        st.add_processing(start, arrived);
+        // Drop-oldest (the default for a camera) never waits here; a blocking queue makes the
+        // capture wait, and the driver then drops frames itself (counted as lost).
+        if (c.frame_q.push(FrameItem{t_ns, arrived, std::move(left), std::move(right)})) {
+          ++c.stereo_pairs;
+          st.add_output(arrived, Clock::now());
+        }
+      },
+      c.log);
+  // in: every frame the camera delivered; failed: those dropped as truncated, corrupted or
+  // out of order (the capture report says which).
+  st.failed = report.truncated + report.corrupted + report.out_of_order;
+  st.in = report.frames + st.failed;
+  c.camera_report = report;
+  c.frame_q.close();
+  c.fusion_producer_done();
+}
+
+void source_stage(Context& c, StageStats& st) {
+  if (c.camera != nullptr)
+    camera_source_stage(c, st);
+  else
+    folder_source_stage(c, st);
 }
 
 void depth_stage(Context& c, StageStats& st) {
@@ -233,6 +275,43 @@ void fusion_stage(Context& c, StageStats& st) {
   c.state_q.close();
 }
 
+// No IMU (camera source): the fusion passes the odometry through. Its states are the tracker's
+// poses of the rectified left camera, chained from the relative motions it hands on
+// (T_world_cur = T_world_ref * T_ref_cur; world = that camera at the first tracked pair), with
+// no covariance (sigma NaN). Failed tracks are counted and give no state.
+void passthrough_fusion_stage(Context& c, StageStats& st) {
+  std::optional<std::pair<TimeNs, SE3>> last;  // the last tracked pair and its pose
+  while (auto input = c.fusion_q.pop()) {
+    const auto* item = std::get_if<TrackItem>(&*input);
+    if (item == nullptr) continue;  // a camera source sends no IMU samples
+    ++st.in;
+    const auto start = Clock::now();
+    std::optional<SE3> T_world_cam;
+    if (item->measurement) {
+      const fusion::RelativePoseMeasurement& m = *item->measurement;
+      if (!last)
+        T_world_cam = SE3();  // the first tracked pair defines the world
+      else if (m.t_ref_ns == last->first)
+        T_world_cam = last->second * m.T_ref_cur;
+    }
+    st.add_processing(start, Clock::now());
+    if (!T_world_cam) {
+      ++st.failed;
+      continue;
+    }
+    last = std::make_pair(item->t_ns, *T_world_cam);
+    fusion::FusedState s;
+    s.t_ns = item->t_ns;
+    s.state.t_ns = item->t_ns;
+    s.state.p_world = T_world_cam->translation();
+    s.state.q_world_body = T_world_cam->unit_quaternion();
+    s.sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
+    s.at_odometry = true;
+    if (c.state_q.push(StateItem{s, item->arrived})) st.add_output(item->arrived, Clock::now());
+  }
+  c.state_q.close();
+}
+
 // The controller's place: it takes each fused state as the position controller would and
 // records it; computing commands is left to `kestrel fly`'s closed loop.
 void controller_stage(Context& c, StageStats& st) {
@@ -260,22 +339,35 @@ SE3 body_from_rectified_camera(const io::EurocSequence& sequence,
 
 }  // namespace
 
-PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bool>* stop) {
+PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bool>* stop,
+                            const PipelineEnvironment& environment) {
   options.validate();
-  if (!std::filesystem::exists(options.input)) {
-    throw InputError(options.input.string() + ": input folder does not exist");
+  const bool camera_source = options.source == Source::kCamera;
+  std::optional<io::EurocSequence> sequence;
+  std::optional<CameraFrameSource> camera;
+  std::optional<sensor::StereoRectifier> rectifier;
+  fusion::FusionOptions fusion_options = options.fusion;
+  if (camera_source) {
+    // The device first: a missing camera is reported before anything is built.
+    camera.emplace(options.camera, options.config_file,
+                   environment.camera_io ? environment.camera_io : driver::system_device_io());
+    rectifier.emplace(*options.camera.calibration);
+  } else {
+    if (!std::filesystem::exists(options.input)) {
+      throw InputError(options.input.string() + ": input folder does not exist");
+    }
+    sequence.emplace(options.input);
+    if (sequence->stereo_size() == 0) {
+      throw InputError(options.input.string() +
+                       ": no stereo pairs (cam0 and cam1 frames with "
+                       "equal time stamps)");
+    }
+    if (!sequence->has_imu())
+      throw InputError(options.input.string() + ": no imu0/ (the fusion needs it)");
+    rectifier.emplace(sensor::StereoCalibration::from_euroc(*sequence));
   }
-  const io::EurocSequence sequence(options.input);
-  if (sequence.stereo_size() == 0) {
-    throw InputError(options.input.string() +
-                     ": no stereo pairs (cam0 and cam1 frames with "
-                     "equal time stamps)");
-  }
-  if (!sequence.has_imu())
-    throw InputError(options.input.string() + ": no imu0/ (the fusion needs it)");
 
-  sensor::StereoRectifier rectifier(sensor::StereoCalibration::from_euroc(sequence));
-  const RectifiedStereo& rig = rectifier.rig();
+  const RectifiedStereo& rig = rectifier->rig();
   std::optional<sensor::BlockMatcher> matcher;
   try {
     matcher.emplace(options.matcher, rig);
@@ -283,15 +375,19 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
     throw InputError(std::string("block matcher: ") + e.what());
   }
   odometry::DirectTracker tracker(rig, options.tracker);
-  fusion::FusionOptions fusion_options = options.fusion;
-  fusion_options.set_imu_noise(sequence.imu_noise());
-  fusion_options.T_body_cam = body_from_rectified_camera(sequence, rectifier.R_rect_left());
-  fusion_options.reorder_window_s = 0.0;  // the fusion stage orders its inputs itself
-  fusion_options.validate();
+  if (!camera_source) {
+    fusion_options.set_imu_noise(sequence->imu_noise());
+    fusion_options.T_body_cam = body_from_rectified_camera(*sequence, rectifier->R_rect_left());
+    fusion_options.reorder_window_s = 0.0;  // the fusion stage orders its inputs itself
+    fusion_options.validate();
+  }
 
-  Context c(options, stop, sequence, rectifier, *matcher, tracker, fusion_options);
-  c.frames = options.max_frames == 0 ? sequence.stereo_size()
-                                     : std::min(options.max_frames, sequence.stereo_size());
+  Context c(options, stop, sequence ? &*sequence : nullptr, camera ? &*camera : nullptr,
+            environment.log, *rectifier, *matcher, tracker, fusion_options);
+  if (sequence) {
+    c.frames = options.max_frames == 0 ? sequence->stereo_size()
+                                       : std::min(options.max_frames, sequence->stereo_size());
+  }
 
   PipelineReport report;
   report.rig = rig;
@@ -299,7 +395,8 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
   const char* names[] = {"source", "depth", "tracker", "fusion", "controller"};
   for (std::size_t i = 0; i < 5; ++i) report.stages[i].name = names[i];
   using StageFn = void (*)(Context&, StageStats&);
-  const StageFn fns[] = {source_stage, depth_stage, tracker_stage, fusion_stage, controller_stage};
+  const StageFn fns[] = {source_stage, depth_stage, tracker_stage,
+                         camera_source ? passthrough_fusion_stage : fusion_stage, controller_stage};
 
   const auto wall0 = Clock::now();
   std::vector<std::thread> threads;
@@ -327,7 +424,16 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
   report.imu_samples = c.imu_samples;
   report.fusion_counters = c.fusion_counters;
   report.fusion_options = fusion_options;
-  report.interrupted = stop != nullptr && stop->load() && c.stereo_pairs < c.frames;
+  report.camera = c.camera_report;
+  report.fusion_pass_through = camera_source;
+  if (camera) {
+    report.camera_info = camera->info();
+    report.camera_format = camera->format();
+    report.interrupted = stop != nullptr && stop->load() && c.camera_report &&
+                         c.camera_report->stop == driver::CaptureStop::kInterrupted;
+  } else {
+    report.interrupted = stop != nullptr && stop->load() && c.stereo_pairs < c.frames;
+  }
   return report;
 }
 

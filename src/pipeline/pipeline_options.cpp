@@ -1,6 +1,7 @@
 // Loading and checking the pipeline's config YAML.
 #include "kestrel/pipeline/pipeline_options.hpp"
 
+#include <optional>
 #include <sstream>
 
 #include "kestrel/core/error.hpp"
@@ -31,15 +32,28 @@ PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
   const YAML::Node root = io::load_yaml_file(path);
   if (!root.IsMap()) throw InputError(path.string() + ": expected a YAML map of pipeline options");
   PipelineOptions o;
-  bool have_input = false;
+  o.config_file = path;
+  bool have_input = false, have_pace = false;
+  std::optional<YAML::Node> camera;  // parsed after the loop, once `source` is known
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
     const YAML::Node& v = kv.second;
     try {
-      if (key == "input") {
+      if (key == "source") {
+        const auto s = v.as<std::string>();
+        if (s == "folder")
+          o.source = Source::kFolder;
+        else if (s == "camera")
+          o.source = Source::kCamera;
+        else
+          throw InputError(path, key, "must be folder or camera, got '" + s + "'");
+      } else if (key == "camera") {
+        camera = v;
+      } else if (key == "input") {
         o.input = config_path(path, v);
         have_input = true;
       } else if (key == "pace") {
+        have_pace = true;
         const auto s = v.as<std::string>();
         if (s == "fast")
           o.pace = Pace::kFast;
@@ -79,7 +93,24 @@ PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
       throw InputError(path, key, "has the wrong type");
     }
   }
-  if (!have_input) throw InputError(path, "input", "missing (the EuRoC folder to run on)");
+  if (o.source == Source::kFolder) {
+    if (camera)
+      throw InputError(path, "camera", "is for source: camera (this config reads a folder)");
+    if (!have_input) throw InputError(path, "input", "missing (the EuRoC folder to run on)");
+  } else {
+    if (have_input) {
+      throw InputError(path, "input",
+                       "is for source: folder (a camera source reads camera.device)");
+    }
+    if (have_pace) {
+      throw InputError(path, "pace", "is for source: folder (a camera delivers at its own rate)");
+    }
+    if (!camera) {
+      throw InputError(path, "camera",
+                       "missing (source: camera needs a camera block with its calibration)");
+    }
+    o.camera = CameraSourceOptions::from_yaml(*camera, path);
+  }
   try {
     o.validate();
   } catch (const InputError& e) {
@@ -89,6 +120,7 @@ PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
 }
 
 void PipelineOptions::validate() const {
+  if (source == Source::kCamera) camera.validate(config_file);
   if (frame_queue_capacity < 1 || fusion_queue_capacity < 1 || state_queue_capacity < 1) {
     throw InputError("queue capacities must be at least 1");
   }
@@ -98,8 +130,12 @@ void PipelineOptions::validate() const {
 
 std::string PipelineOptions::describe() const {
   std::ostringstream s;
-  s << "input=" << input.string() << " pace=" << (pace == Pace::kFast ? "fast" : "recorded")
-    << " drop_stale=" << (drops() ? "true" : "false") << " queues frame=" << frame_queue_capacity
+  if (source == Source::kCamera) {
+    s << "source=camera (" << camera.describe() << ")";
+  } else {
+    s << "input=" << input.string() << " pace=" << (pace == Pace::kFast ? "fast" : "recorded");
+  }
+  s << " drop_stale=" << (drops() ? "true" : "false") << " queues frame=" << frame_queue_capacity
     << " fusion=" << fusion_queue_capacity << " state=" << state_queue_capacity
     << " max_frames=" << max_frames << " vo_covariance_scale=" << vo_covariance_scale
     << " output=" << output.string();

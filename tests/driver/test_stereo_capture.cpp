@@ -183,6 +183,26 @@ TEST_F(StereoCapture, AnInterruptStopsTheRun) {
   EXPECT_EQ(r.frames, 0U);
 }
 
+TEST_F(StereoCapture, AStopPredicateEndsTheRunBetweenFrames) {
+  for (int k = 0; k < 5; ++k) add_frame(k, 1'000 + 1'000 * k, static_cast<std::uint32_t>(k));
+  V4l2Camera camera("/dev/fake0", device_);
+  CameraOptions c;
+  c.width = kWidth;
+  c.height = kHeight;
+  const auto format = camera.configure(c);
+  std::size_t delivered = 0;
+  kestrel::driver::CaptureHooks hooks;
+  hooks.stop_requested = [&] { return delivered >= 2; };  // e.g. another pipeline stage failed
+  const CaptureReport r = kestrel::driver::capture_stereo(
+      camera, format, StereoFrameDecoder(options_), {},
+      [&](TimeNs, const StereoMosaic&, std::span<const std::uint8_t>, std::size_t) { ++delivered; },
+      hooks);
+  EXPECT_EQ(r.stop, CaptureStop::kInterrupted);
+  EXPECT_EQ(r.frames, 2U);
+  EXPECT_EQ(device_->script.size(), 3U);  // the rest was never dequeued
+  EXPECT_FALSE(camera.streaming());
+}
+
 TEST_F(StereoCapture, TheRecordingReadsBackAsAnEurocSequence) {
   const auto dir = kestrel::test::fresh_temp_dir("capture_record");
   options_.left_byte = 1;

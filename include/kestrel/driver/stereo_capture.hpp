@@ -66,6 +66,9 @@ struct CaptureHooks {
   std::ostream* log = nullptr;                         ///< problem frames are logged here
   const std::atomic<bool>* interrupt = nullptr;        ///< raised: stop after the current frame
   std::function<void(const CaptureReport&)> on_frame;  ///< after each good frame (progress)
+  /// Asked before each wait for a frame, as `interrupt`: true ends the run as interrupted. For
+  /// callers whose stop condition is more than one flag (a pipeline: Ctrl-C or a failed stage).
+  std::function<bool()> stop_requested;
 };
 
 /// Runs one capture on a configured camera (started here if it is not streaming; stopped on
