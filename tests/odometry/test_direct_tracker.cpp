@@ -378,6 +378,8 @@ TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
   o.pyramid_filter = image::PyramidFilter::kGaussian;
   o.estimate_gain_bias = false;
   o.min_gradient = 0.0123;
+  o.geometric_fallback = false;
+  o.max_level_jump_px = 3.5;
   const YAML::Node node = YAML::Load(o.to_yaml());
   const DirectTrackerOptions back = DirectTrackerOptions::from_yaml(node, "test");
   EXPECT_EQ(back.to_yaml(), o.to_yaml());
@@ -385,6 +387,10 @@ TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
   EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_levels: many"), "t"), InputError);
   EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("finest_level: 7"), "t"), InputError);
   EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_filter: median"), "t"),
+               InputError);
+  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("max_level_jump_px: 0"), "t"),
+               InputError);
+  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("depth_noise_per_m: .nan"), "t"),
                InputError);
 }
 
