@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git
+  ccache                   # compile cache (CI builds a fresh clone on the same machine)
   libeigen3-dev            # geometry, estimators
   libopencv-dev            # images, calibration, rectification, peer odometry (contrib rgbd)
   libyaml-cpp-dev          # option and calibration files
