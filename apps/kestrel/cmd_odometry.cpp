@@ -242,7 +242,7 @@ void run_odometry(const OdometryArgs& args) {
   trajectory.reserve(sequence.size());
   std::vector<double> ms;
   ms.reserve(sequence.size());
-  std::size_t failures = 0, keyframes = 0;
+  std::size_t failures = 0, keyframes = 0, fallbacks = 0;
   std::vector<std::string> failure_lines;
   ProgressBar progress("odometry", sequence.size());
   for (std::size_t i = 0; i < sequence.size(); ++i) {
@@ -257,13 +257,15 @@ void run_odometry(const OdometryArgs& args) {
       if (failure_lines.size() < 20) failure_lines.push_back(failure_line(i, r));
     }
     keyframes += r.new_keyframe ? 1 : 0;
+    fallbacks += r.geometric_fallback ? 1 : 0;
     trajectory.push_back({images.t_ns, r.T_world_cam});
     progress.update(i + 1);
   }
   progress.finish();
   io::write_tum_trajectory(args.out, trajectory, kCommand, args.force);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses, "
-            << keyframes << " keyframes, " << failures << " failures)\n";
+            << keyframes << " keyframes, " << failures << " failures, " << fallbacks
+            << " by the geometric fallback)\n";
   for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
 
   if (const auto gt = sequence.groundtruth()) evaluate_and_print(*gt, trajectory);
