@@ -1,12 +1,14 @@
 // `kestrel run --config FILE.yaml`: the real-time pipeline (source -> depth -> tracker ->
 // fusion -> controller, one thread each) over a recorded EuRoC folder or the live V4L2 stereo
 // camera; prints per-stage statistics and the end-to-end latency, writes the fused trajectory
-// (TUM; with the camera, which brings no IMU, the odometry's own trajectory).
+// (TUM; with the camera, which brings no IMU, the odometry's own trajectory) and the
+// controller's commands and PWM pulses (CSV; no flight controller is driven).
 #include <atomic>
 #include <csignal>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -43,6 +45,33 @@ std::string load_average() {
   std::ostringstream s;
   s << std::fixed << std::setprecision(2) << l[0] << " " << l[1] << " " << l[2];
   return s.str();
+}
+
+// The controller's outputs by what decided them; the pulses were computed, not sent.
+void print_controller(const pipeline::PipelineReport& r) {
+  std::size_t flown = 0, stale = 0, silent = 0, motors_off = 0, tripped = 0;
+  std::map<std::string, std::size_t> modes;
+  for (const auto& c : r.controller) {
+    if (c.input == pipeline::ControllerInput::kState && !c.disarmed) ++flown;
+    if (c.input == pipeline::ControllerInput::kStaleState) ++stale;
+    if (c.input == pipeline::ControllerInput::kNoState) ++silent;
+    if (c.motors_off) ++motors_off;
+    if (c.watchdog != control::WatchdogState::kActive) ++tripped;
+    if (c.input == pipeline::ControllerInput::kState && !c.disarmed) {
+      ++modes[std::string(control::to_string(c.mode))];
+    }
+  }
+  std::cout << "controller: " << r.controller.size() << " outputs: " << flown
+            << " states flown, " << stale << " stale (older than the watchdog timeout, not flown), "
+            << silent << " without a state (watchdog); " << tripped
+            << " watchdog failsafe, " << motors_off << " motors off; safety modes:";
+  for (const auto& [mode, n] : modes) std::cout << " " << mode << " " << n;
+  std::cout << "\n  PWM NOT SENT: no flight controller is attached; the pulses go to the CSV only\n";
+  if (r.controller_disarmed) {
+    std::cout << "  DISARMED: the states are not fused (camera source, no IMU), so no flight is "
+                 "commanded: every output is the motors-off PWM (controller.allow_unfused: true "
+                 "to fly on the odometry)\n";
+  }
 }
 
 void print_report(const pipeline::PipelineReport& r) {
@@ -83,6 +112,7 @@ void print_report(const pipeline::PipelineReport& r) {
     std::cout << "fusion options used: " << r.fusion_options.describe() << "\n"
               << "fusion: " << r.fusion_counters.describe() << "\n";
   }
+  print_controller(r);
 }
 
 // The camera opened (and closed again) before any output is claimed: a missing, busy or
@@ -109,7 +139,10 @@ void run_run(const RunArgs& a) {
     io::claim_output_dir(a.out, kCommand, a.force);
     out_file = a.out / options.output;
   }
+  fs::path controller_file = options.controller.output;
+  if (!a.out.empty()) controller_file = a.out / options.controller.output;
   io::check_can_write_file(out_file, kCommand, a.force);  // before the run, not after it
+  io::check_can_write_file(controller_file, kCommand, a.force);
   std::cerr << "kestrel run: config=" << a.config.string() << "\n  " << options.describe()
             << "\n  matcher: " << options.matcher.describe()
             << "\n  load average: " << load_average()
@@ -134,6 +167,7 @@ void run_run(const RunArgs& a) {
     trajectory.push_back({s.t_ns, SE3(s.state.q_world_body, s.state.p_world)});
   }
   io::write_tum_trajectory(out_file, trajectory, kCommand, a.force);
+  pipeline::write_controller_csv(controller_file, report.controller, kCommand, a.force);
   print_report(report);
   if (report.fusion_pass_through) {
     std::cout << "odometry trajectory (rectified left camera, NOT fused, " << trajectory.size()
@@ -142,6 +176,8 @@ void run_run(const RunArgs& a) {
     std::cout << "fused trajectory (body/IMU frame, " << trajectory.size()
               << " poses): " << out_file.string() << "\n";
   }
+  std::cout << "controller commands and PWM (" << report.controller.size()
+            << " rows, not sent to any flight controller): " << controller_file.string() << "\n";
   std::cout << "load average after the run: " << load_average() << std::endl;
   // A camera that went away or stalled ended the run cleanly (trajectory written), but not as
   // asked: the exit status says so, as `kestrel capture` does.
@@ -166,8 +202,8 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--config", args->config, "Pipeline config YAML (see docs/pipeline.md)")
       ->required();
   cmd->add_option("--out", args->out,
-                  "Output folder for the trajectory (default: the config's "
-                  "output path as given)");
+                  "Output folder for the trajectory and the controller CSV (default: the "
+                  "config's output paths as given)");
   cmd->add_flag("--force", args->force, "Overwrite files or folders written by something else");
   cmd->callback([args] { run_run(*args); });
 }

@@ -10,6 +10,7 @@
 #include <variant>
 
 #include "camera_source.hpp"
+#include "controller_stage.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
@@ -72,6 +73,7 @@ struct Context {
   std::size_t stereo_pairs = 0;
   fusion::FusionCounters fusion_counters;
   std::vector<fusion::FusedState> states;
+  std::vector<ControllerRecord> controller_records;
   std::optional<driver::CaptureReport> camera_report;
 
   Context(const PipelineOptions& o, const std::atomic<bool>* s, const io::EurocSequence* seq,
@@ -312,13 +314,39 @@ void passthrough_fusion_stage(Context& c, StageStats& st) {
   c.state_q.close();
 }
 
-// The controller's place: it takes each fused state as the position controller would and
-// records it; computing commands is left to `kestrel fly`'s closed loop.
+// The controller: each fused state through the control chain (ControllerStage), decided on
+// a data-time clock: the state's time plus its age here (wall time since its pair arrived,
+// the end-to-end latency). No state for silence_check_s: the watchdog's output is recorded
+// too, at the last decision's clock plus the wall time since. The pulses are only recorded.
 void controller_stage(Context& c, StageStats& st) {
-  while (auto item = c.state_q.pop()) {
+  ControllerStage stage(c.options.controller, /*fused=*/c.camera == nullptr);
+  const auto wait = std::chrono::duration<double>(c.options.controller.silence_check_s);
+  TimeNs last_now_ns = 0;
+  Clock::time_point last_wall = Clock::now();
+  auto since = [](Clock::time_point a, Clock::time_point b) {
+    return static_cast<TimeNs>(std::chrono::duration_cast<std::chrono::nanoseconds>(b - a).count());
+  };
+  while (true) {
+    auto item = c.state_q.pop_for(wait);
+    if (!item) {
+      if (c.state_q.closed() && c.state_q.size() == 0) break;
+      const auto now = Clock::now();
+      if (auto r = stage.on_silence(last_now_ns + since(last_wall, now))) {
+        c.controller_records.push_back(*r);
+        last_now_ns = r->now_ns;
+        last_wall = now;
+      }
+      continue;
+    }
     ++st.in;
     const auto start = Clock::now();
     c.states.push_back(item->state);
+    const ControllerRecord r =
+        stage.on_state(item->state, item->state.t_ns + since(item->arrived, start));
+    c.controller_records.push_back(r);
+    if (r.input == ControllerInput::kStaleState) ++st.failed;
+    last_now_ns = r.now_ns;
+    last_wall = start;
     const auto end = Clock::now();
     st.add_processing(start, end);
     st.add_output(item->arrived, end);
@@ -420,6 +448,8 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
   report.stages[4].dropped = c.state_q.dropped();
   report.end_to_end_ms = report.stages[3].latency_ms;
   report.states = std::move(c.states);
+  report.controller = std::move(c.controller_records);
+  report.controller_disarmed = camera_source && !options.controller.allow_unfused;
   report.stereo_pairs = c.stereo_pairs;
   report.imu_samples = c.imu_samples;
   report.fusion_counters = c.fusion_counters;

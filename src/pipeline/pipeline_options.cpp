@@ -84,6 +84,8 @@ PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
         o.tracker = odometry::DirectTrackerOptions::load(config_path(path, v));
       } else if (key == "tracker") {
         o.tracker = odometry::DirectTrackerOptions::from_yaml(v, path.string() + ": tracker");
+      } else if (key == "controller") {
+        o.controller = ControllerStageOptions::from_yaml(v, path);
       } else if (key == "fusion_options") {
         o.fusion = fusion::FusionOptions::load_yaml(config_path(path, v));
       } else {
@@ -126,6 +128,8 @@ void PipelineOptions::validate() const {
   }
   if (!(vo_covariance_scale > 0.0)) throw InputError("vo_covariance_scale must be positive");
   if (output.empty()) throw InputError("output must name a file");
+  controller.validate();
+  if (controller.output == output) throw InputError("controller.output must differ from output");
 }
 
 std::string PipelineOptions::describe() const {
@@ -138,7 +142,7 @@ std::string PipelineOptions::describe() const {
   s << " drop_stale=" << (drops() ? "true" : "false") << " queues frame=" << frame_queue_capacity
     << " fusion=" << fusion_queue_capacity << " state=" << state_queue_capacity
     << " max_frames=" << max_frames << " vo_covariance_scale=" << vo_covariance_scale
-    << " output=" << output.string();
+    << " output=" << output.string() << "\n  controller: " << controller.describe();
   return s.str();
 }
 

@@ -172,6 +172,16 @@ TEST_F(CameraPipeline, PairsReachTheDepthStageAndATruncatedFrameIsCountedAndSkip
     EXPECT_LT(s.state.q_world_body.angularDistance(Eigen::Quaterniond::Identity()), 0.01);
     EXPECT_TRUE(std::isnan(s.sigma[0]));  // no covariance is claimed
   }
+  // Unfused states are not flown by default: every controller output is the motors-off PWM.
+  EXPECT_TRUE(r.controller_disarmed);
+  std::size_t per_state = 0;
+  for (const auto& c : r.controller) {
+    per_state += c.input != ControllerInput::kNoState;
+    EXPECT_TRUE(c.disarmed);
+    EXPECT_TRUE(c.motors_off);
+    EXPECT_EQ(c.pwm, control::PwmMapper().motors_off());
+  }
+  EXPECT_EQ(per_state, 5u);
   EXPECT_EQ(device_->unmaps, device_->maps);  // the camera was stopped
 }
 

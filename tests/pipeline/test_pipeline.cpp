@@ -2,7 +2,10 @@
 // config loading. Checks counts and their consistency across stages, never timings.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/pipeline/pipeline.hpp"
@@ -13,6 +16,7 @@ namespace {
 
 namespace fs = std::filesystem;
 constexpr const char* kV101 = "euroc/V1_01_easy_part1";
+constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 fs::path write_file(const fs::path& path, const std::string& text) {
   std::ofstream(path) << text;
@@ -176,6 +180,92 @@ TEST(Pipeline, AStopRequestEndsTheRunCleanly) {
   stopper.join();
   EXPECT_LE(r2.stereo_pairs, 25u);
   EXPECT_EQ(stage(r2, "source").out, stage(r2, "depth").in + stage(r2, "depth").dropped);
+}
+
+// V1_01 part 1 stands still on the floor (the MAV takes off later in the sequence). Holding
+// the first fused pose, the position and velocity errors stay near zero, so the controller
+// commands its gravity feed-forward: thrust near the weight of the configured vehicle
+// (mass_kg 1.2 by default: 11.8 N, throttle ~1420 us), level, no yaw rate, nominal mode.
+TEST(Pipeline, ControllerHoldsTheStandingMavAtHoverThrust) {
+  KESTREL_REQUIRE_DATA(kV101);
+  const fs::path dir = test::fresh_temp_dir("pipeline");
+  PipelineOptions o = short_run(dir, Pace::kFast);
+  o.controller.R_body_vehicle = parse_vehicle_axes({"+z", "-y", "+x"});  // EuRoC's IMU axes
+  const PipelineReport r = run_pipeline(o);
+  ASSERT_GT(r.states.size(), 10u);
+  EXPECT_FALSE(r.controller_disarmed);
+  const control::PwmMapper mapper(o.controller.pwm);
+  const double weight = o.controller.controller.mass_kg * control::kGravity;
+  std::size_t per_state = 0;
+  for (const ControllerRecord& c : r.controller) {
+    for (std::size_t ch = 0; ch < 4; ++ch) {
+      EXPECT_GE(c.pwm.us[ch], mapper.options().channels[ch].min_us);
+      EXPECT_LE(c.pwm.us[ch], mapper.options().channels[ch].max_us);
+    }
+    if (c.input == ControllerInput::kNoState) continue;
+    EXPECT_EQ(c.state_t_ns, r.states[per_state].t_ns);
+    ++per_state;
+    ASSERT_EQ(c.input, ControllerInput::kState);  // a fast run's states are fresh (~0.1 s)
+    EXPECT_EQ(c.mode, control::SafetyMode::kNominal);
+    EXPECT_FALSE(c.motors_off);
+    EXPECT_NEAR(c.command.thrust_N, weight, 0.1 * weight);
+    EXPECT_LT(std::abs(c.command.roll_rad), 5.0 * kDegToRad);
+    EXPECT_LT(std::abs(c.command.pitch_rad), 5.0 * kDegToRad);
+    EXPECT_LT(std::abs(c.command.yaw_rate_rad_s), 5.0 * kDegToRad);
+    EXPECT_EQ(c.pwm, mapper.map(c.command));
+    EXPECT_NEAR(c.pwm.us[control::PwmChannels::kThrottle],
+                mapper.map({0.0, 0.0, 0.0, weight}).us[control::PwmChannels::kThrottle], 40);
+    EXPECT_EQ(c.p_ref, r.states.front().state.p_world);  // the first fused pose is held
+  }
+  EXPECT_EQ(per_state, r.states.size());  // one output per fused state
+}
+
+std::vector<std::string> lines_of(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+TEST(Pipeline, TheCommandWritesOneControllerRowPerFusedState) {
+  KESTREL_REQUIRE_DATA(kV101);
+  ASSERT_TRUE(fs::exists(KESTREL_BINARY)) << KESTREL_BINARY << " not found: build `kestrel`";
+  const fs::path dir = test::fresh_temp_dir("pipeline");
+  (void)short_run(dir, Pace::kFast);  // writes run.yaml and fusion.yaml
+  std::ofstream(dir / "run.yaml", std::ios::app) << "controller:\n  vehicle_axes: [+z, -y, +x]\n";
+  const std::string cmd = std::string(KESTREL_BINARY) + " run --config " +
+                          (dir / "run.yaml").string() + " --out " + (dir / "out").string() +
+                          " > " + (dir / "stdout.txt").string() + " 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const auto trajectory = lines_of(dir / "out" / "trajectory.txt");
+  const auto csv = lines_of(dir / "out" / "controller.csv");
+  ASSERT_GE(csv.size(), 2u);
+  EXPECT_EQ(csv[0], "# written by kestrel run");
+  std::string header;
+  for (const auto& c : controller_csv_columns()) header += (header.empty() ? "" : ",") + c;
+  EXPECT_EQ(csv[1], header);
+  std::size_t state_rows = 0;
+  for (std::size_t i = 2; i < csv.size(); ++i) {
+    std::vector<std::string> cells;
+    std::stringstream row(csv[i]);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_EQ(cells.size(), controller_csv_columns().size()) << csv[i];
+    if (cells[2] != "none") ++state_rows;
+    for (std::size_t k = cells.size() - 4; k < cells.size(); ++k) {
+      const int us = std::stoi(cells[k]);
+      EXPECT_GE(us, 1000) << csv[i];
+      EXPECT_LE(us, 2000) << csv[i];
+    }
+  }
+  // The trajectory holds one pose per fused state (after its '#' lines).
+  std::size_t poses = 0;
+  for (const auto& line : trajectory) poses += !line.empty() && line[0] != '#';
+  ASSERT_GT(poses, 10u);
+  EXPECT_EQ(state_rows, poses);
+  const auto out = lines_of(dir / "stdout.txt");
+  bool said = false;
+  for (const auto& line : out) said |= line.find("PWM NOT SENT") != std::string::npos;
+  EXPECT_TRUE(said) << "the report says that no flight controller is driven";
 }
 
 }  // namespace

@@ -4,13 +4,14 @@
 //   source (EuRoC folder: decode pairs, stream IMU; or the V4L2 stereo camera: pairs only)
 //     -> depth (rectify + block match)
 //     -> tracker (disparity-space DirectTracker) -> fusion (FusionEngine: IMU + relative poses)
-//     -> controller (records the fused state it would act on)
+//     -> controller (safety supervisor -> position controller -> limits -> watchdog -> PWM
+//        mapper, as `kestrel fly`; the pulses are recorded: no flight controller attached)
 //   source --IMU--> fusion
 //
-// The controller is a pass-through here: it takes each fused state as a position controller
-// would and records it (the trajectory, the end-to-end latency); no command is computed.
 // With the camera source there is no IMU: the fusion stage passes the odometry through
-// (PipelineReport::fusion_pass_through) instead of running the EKF.
+// (PipelineReport::fusion_pass_through) instead of running the EKF, and the controller does
+// not fly those states unless the config allows it (controller.allow_unfused): it records the
+// disarmed PWM for each (PipelineReport::controller_disarmed).
 #pragma once
 
 #include <atomic>
@@ -25,6 +26,7 @@
 #include "kestrel/driver/v4l2_camera.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/geometry/pinhole_camera.hpp"
+#include "kestrel/pipeline/controller_log.hpp"
 #include "kestrel/pipeline/pipeline_options.hpp"
 #include "kestrel/pipeline/stage_stats.hpp"
 
@@ -35,6 +37,11 @@ struct PipelineReport {
   /// Image pair in (source hands it on) -> fused state out of the fusion, per state.
   std::vector<double> end_to_end_ms;
   std::vector<fusion::FusedState> states;  ///< what the controller received, in order
+  /// The controller's outputs in order: one per state (flown, stale or disarmed), plus one per
+  /// silence_check_s without a state (the watchdog's output).
+  std::vector<ControllerRecord> controller;
+  /// Unfused states (camera source) and allow_unfused off: every output is motors off.
+  bool controller_disarmed = false;
   std::size_t stereo_pairs = 0;            ///< pairs the source emitted
   std::size_t imu_samples = 0;             ///< IMU samples the source emitted
   fusion::FusionCounters fusion_counters;

@@ -11,6 +11,7 @@
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/odometry/direct_tracker_options.hpp"
 #include "kestrel/pipeline/camera_source_options.hpp"
+#include "kestrel/pipeline/controller_options.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 
 namespace kestrel::pipeline {
@@ -46,6 +47,7 @@ struct PipelineOptions {
   sensor::BlockMatcherOptions matcher;
   odometry::DirectTrackerOptions tracker;
   fusion::FusionOptions fusion;  ///< IMU noise and T_body_cam are taken from the folder
+  ControllerStageOptions controller;  ///< the controller stage (`controller:` block)
   /// The file load_yaml() read (empty when built in code): run-time errors of the camera name
   /// it with their field.
   std::filesystem::path config_file;
@@ -57,7 +59,8 @@ struct PipelineOptions {
   /// field. Keys: source (folder|camera), input (folder), camera (a map, see
   /// CameraSourceOptions::from_yaml), pace (fast|recorded), drop_stale, frame_queue_capacity,
   /// fusion_queue_capacity, state_queue_capacity, max_frames, vo_covariance_scale, output,
-  /// matcher_options / tracker_options / fusion_options (files), tracker (inline map).
+  /// matcher_options / tracker_options / fusion_options (files), tracker (inline map),
+  /// controller (a map, see ControllerStageOptions::from_yaml).
   static PipelineOptions load_yaml(const std::filesystem::path& path);
   /// Throws InputError for impossible values (zero capacities, non-positive scale).
   void validate() const;
