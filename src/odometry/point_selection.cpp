@@ -19,29 +19,15 @@ void select_strongest(std::span<const float> scores, std::size_t cap, std::vecto
                       SelectionScratch& scratch) {
   out.clear();
   const std::size_t n = scores.size();
-  // Four interleaved histograms: neighbouring pixels often share a bucket, and one histogram
-  // would make each increment wait for the previous one's store.
-  auto& hists = scratch.histograms;
-  for (auto& h : hists) h.fill(0);
+  auto& hist = scratch.histogram;
+  hist.fill(0);
   std::size_t positive = 0;
-  std::size_t i = 0;
-  for (; i + 4 <= n; i += 4) {
-    for (std::size_t k = 0; k < 4; ++k) {
-      // NaN and s <= 0 fail the test; positives below 2^-126 (denormals) land in bucket 0.
-      const float s = scores[i + k];
-      const bool take = s > 0.0F;
-      hists[k][take ? bucket_of(s) : 0] += take ? 1U : 0U;
-      positive += take ? 1 : 0;
-    }
-  }
-  for (; i < n; ++i) {
-    const float s = scores[i];
+  for (const float s : scores) {
+    // NaN and s <= 0 fail the test; positives below 2^-126 (denormals) land in bucket 0.
     const bool take = s > 0.0F;
-    hists[0][take ? bucket_of(s) : 0] += take ? 1U : 0U;
+    hist[take ? bucket_of(s) : 0] += take ? 1U : 0U;
     positive += take ? 1 : 0;
   }
-  auto& hist = hists[0];
-  for (std::size_t b = 0; b < hist.size(); ++b) hist[b] += hists[1][b] + hists[2][b] + hists[3][b];
   if (cap == 0 || positive <= cap) {
     out.reserve(positive);
     for (std::size_t j = 0; j < n; ++j) {

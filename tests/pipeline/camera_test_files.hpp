@@ -4,16 +4,11 @@
 #pragma once
 
 #include <filesystem>
-#include <fstream>
 #include <string>
 
-namespace kestrel::test {
+#include "config_files.hpp"
 
-inline std::filesystem::path write_text(const std::filesystem::path& path,
-                                        const std::string& text) {
-  std::ofstream(path) << text;
-  return path;
-}
+namespace kestrel::test {
 
 inline std::filesystem::path write_pinhole_pair(const std::filesystem::path& path, int width,
                                                 int height, double f = 300.0) {

@@ -15,15 +15,6 @@ namespace {
 namespace fs = std::filesystem;
 using test::write_text;
 
-std::string error_of(const fs::path& config) {
-  try {
-    (void)PipelineOptions::load_yaml(config);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 class CameraSourceConfig : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -40,7 +31,7 @@ class CameraSourceConfig : public ::testing::Test {
   /// The error of a config, checked to name the file and `field` (quoted as the errors do).
   void expect_error(const fs::path& file, const std::string& field,
                     const std::string& also = "") const {
-    const std::string e = error_of(file);
+    const std::string e = test::config_error_of(file);
     ASSERT_FALSE(e.empty()) << "no error for " << field;
     EXPECT_NE(e.find(file.string()), std::string::npos) << e;
     EXPECT_NE(e.find("field '" + field + "'"), std::string::npos) << e;

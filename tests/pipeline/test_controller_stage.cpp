@@ -10,6 +10,7 @@
 #include "controller_stage.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/pipeline/pipeline_options.hpp"
+#include "config_files.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::pipeline {
@@ -196,26 +197,12 @@ TEST(ControllerStage, VehicleAxesSetTheHeading) {
 
 // --- the `controller:` block of a pipeline config ---
 
-fs::path write_file(const fs::path& path, const std::string& text) {
-  std::ofstream(path) << text;
-  return path;
-}
-
-std::string error_of(const fs::path& config) {
-  try {
-    (void)PipelineOptions::load_yaml(config);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(ControllerStageOptions, DefaultsAndFieldsLoad) {
   const fs::path dir = test::fresh_temp_dir("controller");
-  EXPECT_FALSE(PipelineOptions::load_yaml(write_file(dir / "a.yaml", "input: x\n"))
+  EXPECT_FALSE(PipelineOptions::load_yaml(test::write_text(dir / "a.yaml", "input: x\n"))
                    .controller.setpoint.has_value());
-  write_file(dir / "ctl.yaml", "controller:\n  mass_kg: 1.5\nsafety:\n  vision_timeout_s: 0.5\n");
-  const PipelineOptions o = PipelineOptions::load_yaml(write_file(
+  test::write_text(dir / "ctl.yaml", "controller:\n  mass_kg: 1.5\nsafety:\n  vision_timeout_s: 0.5\n");
+  const PipelineOptions o = PipelineOptions::load_yaml(test::write_text(
       dir / "b.yaml",
       "input: x\ncontroller:\n  setpoint: [1, 2, 3, 90]\n  allow_unfused: true\n"
       "  controller_options: ctl.yaml\n  output: c.csv\n"));
@@ -230,7 +217,7 @@ TEST(ControllerStageOptions, DefaultsAndFieldsLoad) {
   EXPECT_EQ(o.controller.output, "c.csv");
   // The shipped control defaults load through the block.
   const fs::path shipped = fs::path(KESTREL_SOURCE_DIR) / "config" / "controller_default.yaml";
-  write_file(dir / "c.yaml", "input: x\ncontroller:\n  controller_options: " + shipped.string() + "\n");
+  test::write_text(dir / "c.yaml", "input: x\ncontroller:\n  controller_options: " + shipped.string() + "\n");
   EXPECT_EQ(PipelineOptions::load_yaml(dir / "c.yaml").controller.controller.mass_kg,
             control::PositionControllerOptions{}.mass_kg);
 }
@@ -240,9 +227,9 @@ TEST(ControllerStageOptions, ErrorsNameTheConfigFileAndField) {
   struct Case {
     std::string yaml, field, message;
   };
-  write_file(dir / "typo.yaml", "controller:\n  mass_kgg: 1.5\n");
-  write_file(dir / "section.yaml", "controllers:\n  mass_kg: 1.5\n");
-  write_file(dir / "heavy.yaml", "controller:\n  mass_kg: 5\n");
+  test::write_text(dir / "typo.yaml", "controller:\n  mass_kgg: 1.5\n");
+  test::write_text(dir / "section.yaml", "controllers:\n  mass_kg: 1.5\n");
+  test::write_text(dir / "heavy.yaml", "controller:\n  mass_kg: 5\n");
   const Case cases[] = {
       {"controller:\n  setpoint: hover\n", "'controller.setpoint'", "hold or [x_m"},
       {"controller:\n  setpoint: [1, 2, 3]\n", "'controller.setpoint'", "hold or [x_m"},
@@ -264,8 +251,8 @@ TEST(ControllerStageOptions, ErrorsNameTheConfigFileAndField) {
   };
   int i = 0;
   for (const Case& c : cases) {
-    const fs::path f = write_file(dir / ("run" + std::to_string(i++) + ".yaml"), "input: x\n" + c.yaml);
-    const std::string e = error_of(f);
+    const fs::path f = test::write_text(dir / ("run" + std::to_string(i++) + ".yaml"), "input: x\n" + c.yaml);
+    const std::string e = test::config_error_of(f);
     EXPECT_NE(e.find(f.string()), std::string::npos) << c.yaml << " -> " << e;
     EXPECT_NE(e.find(c.field), std::string::npos) << c.yaml << " -> " << e;
     EXPECT_NE(e.find(c.message), std::string::npos) << c.yaml << " -> " << e;

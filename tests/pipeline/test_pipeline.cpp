@@ -9,6 +9,7 @@
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/pipeline/pipeline.hpp"
+#include "config_files.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::pipeline {
@@ -18,26 +19,12 @@ namespace fs = std::filesystem;
 constexpr const char* kV101 = "euroc/V1_01_easy_part1";
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
-fs::path write_file(const fs::path& path, const std::string& text) {
-  std::ofstream(path) << text;
-  return path;
-}
-
-std::string error_of(const fs::path& config) {
-  try {
-    (void)PipelineOptions::load_yaml(config);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 // 25 pairs at 20 Hz; the static IMU initialisation shortened to 0.3 s so that most pairs
 // reach the filter after it has started.
 PipelineOptions short_run(const fs::path& dir, Pace pace) {
-  const fs::path fusion = write_file(dir / "fusion.yaml", "static_init_s: 0.3\n");
+  const fs::path fusion = test::write_text(dir / "fusion.yaml", "static_init_s: 0.3\n");
   const fs::path config =
-      write_file(dir / "run.yaml", "input: " + (test::shared_data_dir() / kV101).string() +
+      test::write_text(dir / "run.yaml", "input: " + (test::shared_data_dir() / kV101).string() +
                                        "\npace: " + (pace == Pace::kFast ? "fast" : "recorded") +
                                        "\nmax_frames: 25\nfusion_options: fusion.yaml\n");
   return PipelineOptions::load_yaml(config);
@@ -52,25 +39,25 @@ const StageStats& stage(const PipelineReport& r, const std::string& name) {
 
 TEST(PipelineOptions, UnknownKeyNamesFileAndField) {
   const fs::path dir = test::fresh_temp_dir("pipeline");
-  const fs::path f = write_file(dir / "bad.yaml", "input: x\nframe_queue_capacit: 2\n");
-  const std::string e = error_of(f);
+  const fs::path f = test::write_text(dir / "bad.yaml", "input: x\nframe_queue_capacit: 2\n");
+  const std::string e = test::config_error_of(f);
   EXPECT_NE(e.find(f.string()), std::string::npos) << e;
   EXPECT_NE(e.find("'frame_queue_capacit'"), std::string::npos) << e;
 }
 
 TEST(PipelineOptions, BadValuesNameTheirField) {
   const fs::path dir = test::fresh_temp_dir("pipeline");
-  EXPECT_NE(error_of(write_file(dir / "a.yaml", "input: x\npace: realtime\n")).find("'pace'"),
+  EXPECT_NE(test::config_error_of(test::write_text(dir / "a.yaml", "input: x\npace: realtime\n")).find("'pace'"),
             std::string::npos);
-  EXPECT_NE(error_of(write_file(dir / "b.yaml", "input: x\nfusion_queue_capacity: 0\n"))
+  EXPECT_NE(test::config_error_of(test::write_text(dir / "b.yaml", "input: x\nfusion_queue_capacity: 0\n"))
                 .find("'fusion_queue_capacity'"),
             std::string::npos);
   EXPECT_NE(
-      error_of(write_file(dir / "c.yaml", "input: x\ndrop_stale: maybe\n")).find("'drop_stale'"),
+      test::config_error_of(test::write_text(dir / "c.yaml", "input: x\ndrop_stale: maybe\n")).find("'drop_stale'"),
       std::string::npos);
-  EXPECT_NE(error_of(write_file(dir / "d.yaml", "pace: fast\n")).find("'input'"),
+  EXPECT_NE(test::config_error_of(test::write_text(dir / "d.yaml", "pace: fast\n")).find("'input'"),
             std::string::npos);
-  EXPECT_NE(error_of(write_file(dir / "e.yaml", "input: x\ntracker:\n  no_such_option: 1\n"))
+  EXPECT_NE(test::config_error_of(test::write_text(dir / "e.yaml", "input: x\ntracker:\n  no_such_option: 1\n"))
                 .find("no_such_option"),
             std::string::npos);
 }
@@ -78,7 +65,7 @@ TEST(PipelineOptions, BadValuesNameTheirField) {
 TEST(PipelineOptions, RelativePathsAreTakenFromTheConfigFolder) {
   const fs::path dir = test::fresh_temp_dir("pipeline");
   const PipelineOptions o = PipelineOptions::load_yaml(
-      write_file(dir / "ok.yaml", "input: data/seq\npace: recorded\nframe_queue_capacity: 3\n"));
+      test::write_text(dir / "ok.yaml", "input: data/seq\npace: recorded\nframe_queue_capacity: 3\n"));
   EXPECT_EQ(o.input, dir / "data/seq");
   EXPECT_EQ(o.pace, Pace::kRecorded);
   EXPECT_TRUE(o.drops());  // recorded pace drops stale frames unless told otherwise
@@ -196,7 +183,7 @@ TEST(Pipeline, ControllerHoldsTheStandingMavAtHoverThrust) {
   EXPECT_FALSE(r.controller_disarmed);
   const control::PwmMapper mapper(o.controller.pwm);
   const double weight = o.controller.controller.mass_kg * control::kGravity;
-  std::size_t per_state = 0;
+  std::size_t per_state = 0, flown = 0;
   for (const ControllerRecord& c : r.controller) {
     for (std::size_t ch = 0; ch < 4; ++ch) {
       EXPECT_GE(c.pwm.us[ch], mapper.options().channels[ch].min_us);
@@ -205,7 +192,13 @@ TEST(Pipeline, ControllerHoldsTheStandingMavAtHoverThrust) {
     if (c.input == ControllerInput::kNoState) continue;
     EXPECT_EQ(c.state_t_ns, r.states[per_state].t_ns);
     ++per_state;
-    ASSERT_EQ(c.input, ControllerInput::kState);  // a fast run's states are fresh (~0.1 s)
+    // A state that spent longer than the watchdog's timeout in the pipeline is not flown: in
+    // an optimised build a fast run's states are ~0.1 s old, under the sanitizers (~10x slower)
+    // most are older. That rule has its own test (test_controller_stage.cpp); here only the
+    // flown states are checked against the physics.
+    if (c.input == ControllerInput::kStaleState) continue;
+    ASSERT_EQ(c.input, ControllerInput::kState);
+    ++flown;
     EXPECT_EQ(c.mode, control::SafetyMode::kNominal);
     EXPECT_FALSE(c.motors_off);
     EXPECT_NEAR(c.command.thrust_N, weight, 0.1 * weight);
@@ -218,6 +211,10 @@ TEST(Pipeline, ControllerHoldsTheStandingMavAtHoverThrust) {
     EXPECT_EQ(c.p_ref, r.states.front().state.p_world);  // the first fused pose is held
   }
   EXPECT_EQ(per_state, r.states.size());  // one output per fused state
+  if (flown == 0) {
+    GTEST_SKIP() << "every fused state was older than the watchdog timeout (a slow build, e.g. "
+                    "the sanitizers): the hover commands were not checked";
+  }
 }
 
 std::vector<std::string> lines_of(const fs::path& file) {

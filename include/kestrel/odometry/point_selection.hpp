@@ -12,7 +12,7 @@ namespace kestrel::odometry {
 
 /// Reusable buffers of select_strongest(): no allocation once they have grown.
 struct SelectionScratch {
-  std::array<std::array<std::uint32_t, 4096>, 4> histograms{};
+  std::array<std::uint32_t, 4096> histogram{};
   std::vector<float> bucket;
 };
 
