@@ -22,6 +22,7 @@ struct EvaluateArgs {
   std::filesystem::path est_path;
   std::filesystem::path plot_dir;  // empty: no files
   eval::EvaluationOptions options;
+  double offset_s = 0.0;  // added to the estimate's stamps (the TUM scripts' --offset)
   bool force = false;
 };
 
@@ -45,14 +46,22 @@ void run_evaluate(const EvaluateArgs& args) {
   std::cerr << "kestrel evaluate: gt=" << args.gt_path.string() << " est=" << args.est_path.string()
             << " plot=" << (args.plot_dir.empty() ? "(none)" : args.plot_dir.string())
             << " force=" << (args.force ? "true" : "false") << " " << args.options.describe()
-            << "\n";
+            << " offset_s=" << io::format_double(args.offset_s) << "\n";
   require_positive(args.options.max_diff_s, "--max-diff");
   require_positive(args.options.rpe_delta_s, "--delta");
+  if (!std::isfinite(args.offset_s) || std::fabs(args.offset_s) > 1e6) {
+    throw InputError("--offset: must be a finite number of seconds (|offset| <= 1e6), got " +
+                     io::format_double(args.offset_s));
+  }
   // Claim the output folder before the work, so that a refusal comes at once.
   if (!args.plot_dir.empty()) io::claim_output_dir(args.plot_dir, kCommand, args.force);
 
   const Trajectory gt = load(args.gt_path, "ground truth");
-  const Trajectory est = load(args.est_path, "estimate");
+  Trajectory est = load(args.est_path, "estimate");
+  // A known clock offset of the estimate's sensor (e.g. camera vs motion capture): shift its
+  // stamps before the association, as the TUM scripts' --offset does to their second file.
+  const auto offset_ns = static_cast<TimeNs>(std::llround(args.offset_s * 1e9));
+  for (auto& pose : est) pose.t_ns += offset_ns;
   eval::Evaluation evaluation;
   try {
     evaluation = eval::evaluate(gt, est, args.options);
@@ -89,6 +98,10 @@ void add_evaluate_command(CLI::App& app) {
                   "ATE association: largest time difference of a gt/est pair [s]")
       ->capture_default_str();
   cmd->add_option("--delta", args->options.rpe_delta_s, "RPE window length [s]")
+      ->capture_default_str();
+  cmd->add_option("--offset", args->offset_s,
+                  "time offset added to the estimate's stamps before the association [s] "
+                  "(the TUM scripts' --offset)")
       ->capture_default_str();
   cmd->add_flag("--force", args->force,
                 "write into a folder or over files not written by "

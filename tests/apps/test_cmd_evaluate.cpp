@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -129,6 +130,38 @@ TEST_F(CmdEvaluate, DisjointTimesAreAClearErrorNotNan) {
   EXPECT_NE(r.err.find("pose pairs"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(est.string()), std::string::npos) << r.err;
   EXPECT_EQ(r.out.find("nan"), std::string::npos) << r.out;
+}
+
+TEST_F(CmdEvaluate, OffsetShiftsTheEstimateBeforeTheAssociation) {
+  // The estimate is the ground truth with its stamps 0.3 s late: matched as they are, every
+  // pair compares poses 0.3 s apart on a 1 m/s line (ATE ~0.3 m before alignment, and the
+  // RPE windows see no motion error either way); --offset -0.3 puts them back (ATE 0).
+  const fs::path gt = dir_ / "gt.txt";
+  const fs::path est = dir_ / "est.txt";
+  {
+    std::ofstream g(gt), e(est);
+    for (int k = 0; k < 100; ++k) {
+      const double t = 100.0 + k * 0.05, x = k * 0.05, y = 0.3 * std::sin(k * 0.1);
+      g << t << " " << x << " " << y << " 0 0 0 0 1\n";
+      e << t + 0.3 << " " << x << " " << y << " 0 0 0 0 1\n";
+    }
+  }
+  const std::string args = "evaluate --gt " + quoted(gt.string()) + " --est " + quoted(est.string());
+  double ate = 0, trans = 0, rot = 0;
+  const RunResult plain = run(args);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  ASSERT_EQ(std::sscanf(plain.last_line().c_str(), "ate_rmse_m=%lf rpe_trans_m_s=%lf rpe_rot_deg_s=%lf",
+                        &ate, &trans, &rot), 3);
+  EXPECT_GT(ate, 0.01);  // the curve does not align onto itself shifted along it
+  const RunResult shifted = run(args + " --offset -0.3");
+  ASSERT_EQ(shifted.exit_code, 0) << shifted.err;
+  ASSERT_EQ(std::sscanf(shifted.last_line().c_str(), "ate_rmse_m=%lf rpe_trans_m_s=%lf rpe_rot_deg_s=%lf",
+                        &ate, &trans, &rot), 3);
+  EXPECT_LT(ate, 1e-6);
+  EXPECT_LT(trans, 1e-6);
+  EXPECT_NE(shifted.err.find("offset_s=-0.3"), std::string::npos) << shifted.err;
+  const RunResult bad = run(args + " --offset nan");
+  EXPECT_NE(bad.exit_code, 0);
 }
 
 TEST_F(CmdEvaluate, BadOptionValueIsExitOne) {
