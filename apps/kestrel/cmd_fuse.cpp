@@ -224,6 +224,7 @@ struct FuseEvalArgs {
   bool vo_keyframes = false;
   double imu_noise_scale = 1.0;
   double imu_walk_scale = 1.0;
+  double gap_start_s = 15.0;
 };
 
 void run_fuse_eval(const FuseEvalArgs& a) {
@@ -244,6 +245,10 @@ void run_fuse_eval(const FuseEvalArgs& a) {
   eo.vo_keyframes = a.vo_keyframes;
   eo.imu_noise_scale = a.imu_noise_scale;
   eo.imu_walk_scale = a.imu_walk_scale;
+  if (!(std::isfinite(a.gap_start_s) && a.gap_start_s >= 0.0)) {
+    throw InputError("--gap-start: must be >= 0 seconds, got " + std::to_string(a.gap_start_s));
+  }
+  eo.gap_start_s = a.gap_start_s;
   std::cout << "# kestrel fuse-eval (seed " << a.seed << ")\n";
   if (!a.skip_real) {
     std::cout << fusion::format_result(
@@ -336,6 +341,9 @@ void add_fuse_eval_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--imu-walk-scale", a->imu_walk_scale,
                  "multiply the IMU bias random walks of imu0/sensor.yaml")
+      ->capture_default_str();
+  cmd->add_option("--gap-start", a->gap_start_s,
+                  "start of the 2 s measurement gap, seconds after the first pose")
       ->capture_default_str();
   cmd->callback([a] { run_fuse_eval(*a); });
 }

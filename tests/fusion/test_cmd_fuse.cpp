@@ -157,5 +157,24 @@ TEST_F(CmdFuse, MissingCalibrationFieldIsAClearError) {
   EXPECT_FALSE(fs::exists(dir_ / "fused.txt"));
 }
 
+TEST_F(CmdFuse, FuseEvalMovesTheGapAndRejectsANegativeStart) {
+  const RunResult bad = run("fuse-eval --data " + quoted(dir_.string()) + " --gap-start -1");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("--gap-start"), std::string::npos) << bad.err;
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth");
+  const std::string data = quoted(test::shared_data_dir().string());
+  // Two gap positions give two different runs: the option reaches the experiment.
+  const RunResult at6 = run("fuse-eval --skip-sim --data " + data + " --gap-start 6");
+  const RunResult at15 = run("fuse-eval --skip-sim --data " + data + " --gap-start 15");
+  ASSERT_EQ(at6.exit_code, 0) << at6.err;
+  ASSERT_EQ(at15.exit_code, 0) << at15.err;
+  auto gap_line = [](const std::string& out) {
+    const auto at = out.find("2 s gap:");
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+  };
+  EXPECT_FALSE(gap_line(at6.out).empty()) << at6.out;
+  EXPECT_NE(gap_line(at6.out), gap_line(at15.out));
+}
+
 }  // namespace
 }  // namespace kestrel::fusion
