@@ -196,6 +196,22 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 
 }  // namespace
 
+namespace {
+
+// T_cur_ref in floats, unrolled for the per-point warp loops (scalars the loops keep in
+// registers; no Eigen temporaries per point).
+struct FloatPose {
+  float r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2;
+};
+FloatPose float_pose(const SE3& T) {
+  const Eigen::Matrix3f R = T.rotation_matrix().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  return {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
+          R(2, 0), R(2, 1), R(2, 2), t.x(),   t.y(),   t.z()};
+}
+
+}  // namespace
+
 struct TrackerAccess {
   // Reference building: gradients, selection and the precomputed IC Jacobians per level.
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
@@ -404,12 +420,7 @@ struct TrackerAccess {
     // Without early exits (a point without a normal or a usable sample gets zero residual,
     // Jacobian and validity): BM_TrackAgainstKeyframeWithDepthResidual 13.8 -> 11.9 ms. GCC 12
     // does not vectorise this loop, nor warp_residuals' ("control flow in loop").
-    const Eigen::Matrix3f R = T_cur_ref.rotation_matrix().cast<float>();
-    const Eigen::Vector3f t = T_cur_ref.translation().cast<float>();
-    const float r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2);
-    const float r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
-    const float r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
-    const float t0 = t.x(), t1 = t.y(), t2 = t.z();
+    const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] = float_pose(T_cur_ref);
     const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
     const float inv_fx = 1.0F / fx, inv_fy = 1.0F / fy;
     const auto umax = static_cast<float>(dep.cols - 1);
@@ -554,12 +565,7 @@ struct TrackerAccess {
   // Returns the number of points that land inside the image.
   static int warp_residuals(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& cur,
                             const SE3& T_cur_ref, float alpha, float beta) {
-    const Eigen::Matrix3f R = T_cur_ref.rotation_matrix().cast<float>();
-    const Eigen::Vector3f t = T_cur_ref.translation().cast<float>();
-    const float r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2);
-    const float r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
-    const float r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
-    const float t0 = t.x(), t1 = t.y(), t2 = t.z();
+    const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] = float_pose(T_cur_ref);
     const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
     const auto umax = static_cast<float>(cur.cols - 1);
     const auto vmax = static_cast<float>(cur.rows - 1);
