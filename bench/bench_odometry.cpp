@@ -1,6 +1,8 @@
 // Microbenchmarks of the image kernels and of the direct tracker on a 640x480 rendered pair.
 #include <benchmark/benchmark.h>
 
+#include <array>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
@@ -12,12 +14,15 @@
 #include "kestrel/image/undistortion.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
+#include "kestrel/odometry/alignment_kernels.hpp"
+#include "kestrel/odometry/robust_weights.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "../tests/odometry/synthetic_rgbd.hpp"
 
 namespace {
 
 using namespace kestrel;
+namespace kernels = kestrel::odometry::kernels;
 
 const PinholeCamera& fr1() {
   static const PinholeCamera cam({517.3, 516.5, 318.6, 255.3, 640, 480},
@@ -77,6 +82,135 @@ void BM_Gradients(benchmark::State& s) {
   for (auto _ : s) image::central_gradients(in, gx, gy);
 }
 BENCHMARK(BM_Gradients);
+
+// ---- The per-iteration alignment kernels on 6000 points (the default max_points_per_level) of
+// a 640x480 level: what one Gauss-Newton iteration of DirectTracker runs.
+struct KernelData {
+  static constexpr int kPoints = 6000;
+  cv::Mat image;
+  std::vector<float> x, y, z, intensity, residual, weight, abs_residual;
+  std::vector<std::uint8_t> valid;
+  std::array<std::vector<float>, 8> jac;
+  kernels::PointsView points() const {
+    return {x.data(), y.data(), z.data(), intensity.data(), kPoints};
+  }
+  kernels::LevelImage level() const {
+    return {image.ptr<float>(), static_cast<int>(image.step1()), image.cols, image.rows,
+            525.0F, 525.0F, 319.5F, 239.5F};
+  }
+};
+const KernelData& kernel_data() {
+  static const KernelData d = [] {
+    KernelData k;
+    k.image = cv::Mat(480, 640, CV_32FC1);
+    cv::randu(k.image, 0.0F, 1.0F);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(0.0F, 640.0F), v(0.0F, 480.0F), depth(0.5F, 4.0F),
+        grey(0.0F, 1.0F), jac(-1.0F, 1.0F);
+    const auto padded = static_cast<std::size_t>(kernels::pad_to_lanes(KernelData::kPoints));
+    for (auto* vec : {&k.x, &k.y, &k.z, &k.intensity, &k.residual, &k.weight, &k.abs_residual}) {
+      vec->assign(padded, 0.0F);
+    }
+    k.valid.assign(padded, 0);
+    for (auto& col : k.jac) col.assign(padded, 0.0F);
+    for (int i = 0; i < KernelData::kPoints; ++i) {
+      const auto s = static_cast<std::size_t>(i);
+      const float Z = depth(rng);
+      k.x[s] = (u(rng) - 319.5F) / 525.0F * Z;
+      k.y[s] = (v(rng) - 239.5F) / 525.0F * Z;
+      k.z[s] = Z;
+      k.intensity[s] = grey(rng);
+      for (auto& col : k.jac) col[s] = jac(rng);
+    }
+    return k;
+  }();
+  return d;
+}
+// A small motion: about 3 % of the points leave the image, as between consecutive frames.
+const kernels::FloatPose& kernel_pose() {
+  static const kernels::FloatPose T = [] {
+    Vector6d xi;
+    xi << 0.01, 0.005, 0.01, 0.01, 0.02, 0.015;
+    return kernels::FloatPose::from(SE3::exp(xi));
+  }();
+  return T;
+}
+
+// Arg 0: the SIMD (AVX2 gather) version the tracker calls, 1: the scalar reference.
+void BM_WarpResiduals(benchmark::State& s) {
+  KernelData d = kernel_data();
+  const bool scalar = s.range(0) == 1;
+  for (auto _ : s) {
+    const int inside = scalar ? kernels::warp_residuals_scalar(d.points(), d.level(), kernel_pose(),
+                                                               1.0F, 0.0F, d.residual.data(),
+                                                               d.valid.data())
+                              : kernels::warp_residuals(d.points(), d.level(), kernel_pose(), 1.0F,
+                                                        0.0F, d.residual.data(), d.valid.data());
+    benchmark::DoNotOptimize(inside);
+  }
+  s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
+}
+BENCHMARK(BM_WarpResiduals)->Arg(0)->Arg(1);
+
+KernelData warped_kernel_data() {
+  KernelData d = kernel_data();
+  kernels::warp_residuals(d.points(), d.level(), kernel_pose(), 1.0F, 0.0F, d.residual.data(),
+                          d.valid.data());
+  return d;
+}
+
+void BM_TukeyCost(benchmark::State& s) {
+  const KernelData d = warped_kernel_data();
+  for (auto _ : s) {
+    benchmark::DoNotOptimize(kernels::tukey_cost_sum(d.residual.data(), d.valid.data(),
+                                                     KernelData::kPoints, 1.0F / 0.1F, 4.6851F));
+  }
+  s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
+}
+BENCHMARK(BM_TukeyCost);
+
+void BM_TukeyWeights(benchmark::State& s) {
+  KernelData d = warped_kernel_data();
+  for (auto _ : s) {
+    benchmark::DoNotOptimize(kernels::tukey_weights(d.residual.data(), d.valid.data(),
+                                                    KernelData::kPoints, 1.0F / 0.1F, 4.6851F,
+                                                    d.weight.data()));
+  }
+  s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
+}
+BENCHMARK(BM_TukeyWeights);
+
+// The MAD sigma of thesis eq. 3.40: packing |r| of the valid points, then the median selection.
+void BM_RobustSigma(benchmark::State& s) {
+  KernelData d = warped_kernel_data();
+  for (auto _ : s) {
+    const int m = kernels::gather_abs_valid(d.residual.data(), d.valid.data(), KernelData::kPoints,
+                                            d.abs_residual.data());
+    benchmark::DoNotOptimize(odometry::robust_sigma(
+        std::span<float>(d.abs_residual.data(), static_cast<std::size_t>(m)), 8));
+  }
+  s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
+}
+BENCHMARK(BM_RobustSigma);
+
+// The 8-column weighted normal equations (36 terms of J^T W J and 8 of J^T W r per point).
+void BM_NormalEquations(benchmark::State& s) {
+  KernelData d = warped_kernel_data();
+  kernels::tukey_weights(d.residual.data(), d.valid.data(), KernelData::kPoints, 1.0F / 0.1F,
+                         4.6851F, d.weight.data());
+  const float* J[8];
+  for (std::size_t c = 0; c < 8; ++c) J[c] = d.jac[c].data();
+  for (auto _ : s) {
+    odometry::Matrix8d H = odometry::Matrix8d::Zero();
+    odometry::Vector8d g = odometry::Vector8d::Zero();
+    kernels::accumulate_normal_equations<8>(J, KernelData::kPoints, d.weight.data(),
+                                            d.residual.data(), H, g);
+    benchmark::DoNotOptimize(H.data());
+    benchmark::DoNotOptimize(g.data());
+  }
+  s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
+}
+BENCHMARK(BM_NormalEquations);
 
 struct Pair {
   odometry::RgbdFrame ref, cur;

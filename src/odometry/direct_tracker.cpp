@@ -14,6 +14,7 @@
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/interpolation.hpp"
+#include "kestrel/odometry/alignment_kernels.hpp"
 #include "kestrel/odometry/disparity_space.hpp"
 #include "kestrel/odometry/point_selection.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
@@ -37,9 +38,8 @@ std::string_view to_string(TrackFailure failure) {
 
 namespace {
 
-constexpr int kLanes = 8;  // accumulation lanes: one AVX register of floats
-
-int pad_to_lanes(int n) { return (n + kLanes - 1) / kLanes * kLanes; }
+using kernels::kLanes;
+using kernels::pad_to_lanes;
 
 double rotation_angle_deg(const SE3& T) {
   return T.so3().log().norm() * 180.0 / std::numbers::pi;
@@ -198,17 +198,8 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 
 namespace {
 
-// T_cur_ref in floats, unrolled for the per-point warp loops (scalars the loops keep in
-// registers; no Eigen temporaries per point).
-struct FloatPose {
-  float r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2;
-};
-FloatPose float_pose(const SE3& T) {
-  const Eigen::Matrix3f R = T.rotation_matrix().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
-  return {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
-          R(2, 0), R(2, 1), R(2, 2), t.x(),   t.y(),   t.z()};
-}
+// T_cur_ref in floats, unrolled for the per-point warp loops (no Eigen temporaries per point).
+kernels::FloatPose float_pose(const SE3& T) { return kernels::FloatPose::from(T); }
 
 }  // namespace
 
@@ -565,36 +556,12 @@ struct TrackerAccess {
   // Returns the number of points that land inside the image.
   static int warp_residuals(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& cur,
                             const SE3& T_cur_ref, float alpha, float beta) {
-    const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] = float_pose(T_cur_ref);
-    const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
-    const auto umax = static_cast<float>(cur.cols - 1);
-    const auto vmax = static_cast<float>(cur.rows - 1);
-    const float* data = cur.ptr<float>();
-    const int stride = static_cast<int>(cur.step1());
-    const float* px = L.x.data();
-    const float* py = L.y.data();
-    const float* pz = L.z.data();
-    const float* iref = L.intensity.data();
-    float* res = m.residual.data();
-    std::uint8_t* val = m.valid.data();
-    int inside_count = 0;
-    for (int i = 0; i < L.count; ++i) {
-      const float X = r00 * px[i] + r01 * py[i] + r02 * pz[i] + t0;
-      const float Y = r10 * px[i] + r11 * py[i] + r12 * pz[i] + t1;
-      const float Z = r20 * px[i] + r21 * py[i] + r22 * pz[i] + t2;
-      const float inv_z = 1.0F / Z;
-      float u = fx * X * inv_z + cx;
-      float v = fy * Y * inv_z + cy;
-      // NaN-safe: every comparison with NaN is false.
-      const bool inside = Z > 1e-3F && u >= 0.0F && u < umax && v >= 0.0F && v < vmax;
-      u = inside ? u : 0.0F;
-      v = inside ? v : 0.0F;
-      const float ic = image::sample_bilinear_unchecked(data, stride, u, v);
-      res[i] = inside ? alpha * ic + beta - iref[i] : 0.0F;
-      val[i] = inside ? 1 : 0;
-      inside_count += inside ? 1 : 0;
-    }
-    return inside_count;
+    const kernels::PointsView points{L.x.data(), L.y.data(), L.z.data(), L.intensity.data(),
+                                     L.count};
+    const kernels::LevelImage image{cur.ptr<float>(), static_cast<int>(cur.step1()), cur.cols,
+                                    cur.rows, L.fx, L.fy, L.cx, L.cy};
+    return kernels::warp_residuals(points, image, float_pose(T_cur_ref), alpha, beta,
+                                   m.residual.data(), m.valid.data());
   }
 };
 
@@ -638,44 +605,6 @@ struct LevelStats {
 
 namespace {
 
-// Weighted normal equations with lane accumulators (vectorisable, no reduction across lanes).
-// Adds sum w J J^T and sum w J r over the first C columns to H and g.
-template <int C>
-void accumulate_normal_equations(const float* const* J, int count, const float* w, const float* r,
-                                 Matrix8d& H, Vector8d& g) {
-  constexpr int kH = C * (C + 1) / 2;
-  alignas(32) float acc[kH + C][kLanes] = {};
-  const int n = pad_to_lanes(count);
-  for (int i = 0; i < n; i += kLanes) {
-    float wj[C][kLanes];
-    for (int a = 0; a < C; ++a) {
-      for (int k = 0; k < kLanes; ++k) wj[a][k] = w[i + k] * J[a][i + k];
-    }
-    int term = 0;
-    for (int a = 0; a < C; ++a) {
-      for (int b = a; b < C; ++b, ++term) {
-        for (int k = 0; k < kLanes; ++k) acc[term][k] += wj[a][k] * J[b][i + k];
-      }
-    }
-    for (int a = 0; a < C; ++a) {
-      for (int k = 0; k < kLanes; ++k) acc[kH + a][k] += wj[a][k] * r[i + k];
-    }
-  }
-  auto sum = [&](int term) {
-    double s = 0.0;
-    for (int k = 0; k < kLanes; ++k) s += static_cast<double>(acc[term][k]);
-    return s;
-  };
-  int term = 0;
-  for (int a = 0; a < C; ++a) {
-    for (int b = a; b < C; ++b, ++term) {
-      H(a, b) += sum(term);
-      if (b != a) H(b, a) += sum(term);
-    }
-  }
-  for (int a = 0; a < C; ++a) g(a) += sum(kH + a);
-}
-
 void accumulate_normal_equations(const ReferenceLevel& L, const float* w, const float* r,
                                  const std::array<std::vector<float>, 6>& geo_jac,
                                  const float* w_geo, const float* r_geo, Matrix8d& H, Vector8d& g) {
@@ -683,11 +612,11 @@ void accumulate_normal_equations(const ReferenceLevel& L, const float* w, const 
   g.setZero();
   const float* J[8];
   for (std::size_t c = 0; c < 8; ++c) J[c] = L.jac[c].data();
-  accumulate_normal_equations<8>(J, L.count, w, r, H, g);
+  kernels::accumulate_normal_equations<8>(J, L.count, w, r, H, g);
   if (w_geo != nullptr) {
     const float* Jg[6];
     for (std::size_t c = 0; c < 6; ++c) Jg[c] = geo_jac[c].data();
-    accumulate_normal_equations<6>(Jg, L.count, w_geo, r_geo, H, g);
+    kernels::accumulate_normal_equations<6>(Jg, L.count, w_geo, r_geo, H, g);
   }
 }
 
@@ -859,11 +788,7 @@ struct AlignRunner {
         // raises it is halved (up to 3 times: far from the optimum Gauss-Newton overshoots);
         // if it still does, the level ends at the previous pose (the noise floor is reached).
         if (it > 0 && o.stop_on_cost_increase) {
-          const auto inv_sigma = static_cast<float>(1.0 / sigma);
-          double cost = 0.0;
-          for (int i = 0; i < n; ++i) {
-            cost += static_cast<double>(val[i] ? tukey_cost(r[i] * inv_sigma, c) : max_cost);
-          }
+          double cost = kernels::tukey_cost_sum(r, val, n, static_cast<float>(1.0 / sigma), c);
           if (geo) cost += geo_cost(static_cast<float>(1.0 / geo_sigma));
           if (cost > prev_cost) {
             if (halvings < 3 && last_step.head(params).norm() > 10.0 * o.update_norm_tolerance) {
@@ -884,12 +809,8 @@ struct AlignRunner {
 
         // Robust scale (thesis eq. 3.40), frozen once it settles (thesis 3.10).
         if (!sigma_frozen) {
-          int mvalid = 0;
           float* absr = m.abs_residual.data();
-          for (int i = 0; i < n; ++i) {
-            absr[mvalid] = std::fabs(r[i]);
-            mvalid += val[i];
-          }
+          const int mvalid = kernels::gather_abs_valid(r, val, n, absr);
           double s = robust_sigma(std::span<float>(absr, static_cast<std::size_t>(mvalid)), params);
           s = std::max(s, o.min_sigma);
           if (it > 0 && std::fabs(s - sigma) < o.sigma_freeze_change) sigma_frozen = true;
@@ -922,17 +843,11 @@ struct AlignRunner {
         // Weights, cost, inliers.
         const auto inv_sigma = static_cast<float>(1.0 / sigma);
         float* w = m.weight.data();
-        double cost = 0.0;
-        int inliers = 0;
         // Weights carry 1/sigma^2, so that the two kinds of residual combine as normalised
         // residuals and H^-1 is the covariance.
-        const auto inv_sigma2 = inv_sigma * inv_sigma;
-        for (int i = 0; i < n; ++i) {
-          const float u = r[i] * inv_sigma;
-          w[i] = val[i] ? tukey_weight(u, c) * inv_sigma2 : 0.0F;
-          cost += static_cast<double>(val[i] ? tukey_cost(u, c) : max_cost);
-          inliers += (val[i] && std::fabs(u) < c) ? 1 : 0;
-        }
+        const kernels::WeightSums sums = kernels::tukey_weights(r, val, n, inv_sigma, c, w);
+        double cost = sums.cost;
+        const int inliers = sums.inliers;
         if (geo) {
           const auto inv_sg = static_cast<float>(1.0 / geo_sigma);
           const float scale = geo_lambda * inv_sg * inv_sg;

@@ -1,0 +1,154 @@
+// The per-iteration kernels of the direct alignment (thesis 3.5-3.10) on structure-of-arrays
+// point data: warp + bilinear sample + photometric residual, Tukey cost and weights, and the
+// weighted normal equations. DirectTracker calls them once per Gauss-Newton iteration; they are
+// free functions on plain arrays so that each can be tested and benchmarked alone.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
+
+#include "kestrel/geometry/se3.hpp"
+#include "kestrel/odometry/warp_jacobian.hpp"  // Matrix8d, Vector8d
+
+namespace kestrel::odometry::kernels {
+
+/// Accumulation lanes of the vectorised loops (one AVX register of floats). Per-point arrays
+/// handed to accumulate_normal_equations are padded to a multiple of it, with zero weights.
+inline constexpr int kLanes = 8;
+inline int pad_to_lanes(int n) { return (n + kLanes - 1) / kLanes * kLanes; }
+
+/// T_cur_ref in floats, unrolled (scalars the loops keep in registers).
+struct FloatPose {
+  float r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2;
+  static FloatPose from(const SE3& T);
+};
+
+/// Reference points of one pyramid level: 3-D position in the reference camera and intensity.
+struct PointsView {
+  const float* x = nullptr;
+  const float* y = nullptr;
+  const float* z = nullptr;
+  const float* intensity = nullptr;
+  int count = 0;
+};
+
+/// A CV_32FC1 image (row stride in floats) and the pinhole model of its level.
+struct LevelImage {
+  const float* data = nullptr;
+  int stride = 0, width = 0, height = 0;
+  float fx = 0, fy = 0, cx = 0, cy = 0;
+};
+
+/// r_i = alpha I_cur(pi(T_cur_ref P_i)) + beta - I_ref,i for every point whose projection lies in
+/// [0, w-1) x [0, h-1) with Z > 1 mm (valid_i = 1); elsewhere r_i = 0, valid_i = 0. Returns the
+/// number of valid points. NaN coordinates are invalid. Uses AVX2 gathers where compiled for
+/// them, else warp_residuals_scalar.
+int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatPose& T_cur_ref,
+                   float alpha, float beta, float* residual, std::uint8_t* valid);
+/// The reference implementation (one point at a time); results equal warp_residuals' to float
+/// rounding.
+int warp_residuals_scalar(const PointsView& points, const LevelImage& cur,
+                          const FloatPose& T_cur_ref, float alpha, float beta, float* residual,
+                          std::uint8_t* valid);
+
+/// sum_i rho(r_i / sigma) over valid points plus rho_max = c^2/6 per invalid point (Tukey cost,
+/// thesis eq. 3.39 integrated): the robust cost a step is accepted on.
+double tukey_cost_sum(const float* residual, const std::uint8_t* valid, int count, float inv_sigma,
+                      float c);
+
+struct WeightSums {
+  double cost = 0.0;  ///< as tukey_cost_sum
+  int inliers = 0;    ///< valid points with |r / sigma| < c
+};
+/// w_i = w(r_i / sigma) / sigma^2 (Tukey weight, thesis eq. 3.39, carrying 1/sigma^2 so that
+/// H^-1 is the covariance); 0 for invalid points. Returns the cost and inlier count as well.
+WeightSums tukey_weights(const float* residual, const std::uint8_t* valid, int count,
+                         float inv_sigma, float c, float* weight);
+
+/// Writes |r_i| of the valid points, packed, to `out`; returns how many (the input of
+/// robust_sigma, thesis eq. 3.40).
+int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count, float* out);
+
+namespace detail {
+
+// Row A of the normal equations: sum w J_A J_b for b = A..C-1 and sum w J_A r, each in one lane
+// accumulator (C - A + 1 <= 9 of them: they stay in registers, unlike the 44 of all rows at
+// once, which spilled: 63 us per 6000 points before, see bench BM_NormalEquations).
+template <int A, int C>
+void accumulate_row(const float* const* J, int n, const float* w, const float* r, double* row) {
+  constexpr int kTerms = C - A + 1;
+  const float* ja = J[A];
+#if defined(__AVX2__) && defined(__FMA__)
+  static_assert(kLanes == 8);
+  __m256 acc[kTerms];
+#pragma GCC unroll 16
+  for (int t = 0; t < kTerms; ++t) acc[t] = _mm256_setzero_ps();
+  for (int i = 0; i < n; i += kLanes) {
+    const __m256 wa = _mm256_mul_ps(_mm256_loadu_ps(w + i), _mm256_loadu_ps(ja + i));
+#pragma GCC unroll 16
+    for (int b = A; b < C; ++b) {
+      acc[b - A] = _mm256_fmadd_ps(wa, _mm256_loadu_ps(J[b] + i), acc[b - A]);
+    }
+    acc[kTerms - 1] = _mm256_fmadd_ps(wa, _mm256_loadu_ps(r + i), acc[kTerms - 1]);
+  }
+  for (int t = 0; t < kTerms; ++t) {
+    alignas(32) float lanes[kLanes];
+    _mm256_store_ps(lanes, acc[t]);
+    double s = 0.0;
+    for (float x : lanes) s += static_cast<double>(x);
+    row[t] = s;
+  }
+#else
+  alignas(32) float acc[kTerms][kLanes] = {};
+  for (int i = 0; i < n; i += kLanes) {
+    float wa[kLanes];
+    for (int k = 0; k < kLanes; ++k) wa[k] = w[i + k] * ja[i + k];
+    for (int b = A; b < C; ++b) {
+      const float* jb = J[b];
+      for (int k = 0; k < kLanes; ++k) acc[b - A][k] += wa[k] * jb[i + k];
+    }
+    for (int k = 0; k < kLanes; ++k) acc[kTerms - 1][k] += wa[k] * r[i + k];
+  }
+  for (int t = 0; t < kTerms; ++t) {
+    double s = 0.0;
+    for (int k = 0; k < kLanes; ++k) s += static_cast<double>(acc[t][k]);
+    row[t] = s;
+  }
+#endif
+}
+
+template <int C, int... A>
+void accumulate_rows(const float* const* J, int n, const float* w, const float* r, Matrix8d& H,
+                     Vector8d& g, std::integer_sequence<int, A...> /*rows*/) {
+  auto one_row = [&]<int Row>(std::integral_constant<int, Row>) {
+    double row[C - Row + 1];
+    accumulate_row<Row, C>(J, n, w, r, row);
+    for (int b = Row; b < C; ++b) {
+      H(Row, b) += row[b - Row];
+      if (b != Row) H(b, Row) += row[b - Row];
+    }
+    g(Row) += row[C - Row];
+  };
+  (one_row(std::integral_constant<int, A>{}), ...);
+}
+
+}  // namespace detail
+
+/// Adds sum_i w_i J_i J_i^T and sum_i w_i J_i r_i over the first C columns of J (column-major
+/// arrays J[0..C-1], padded to kLanes with w = 0) to H and g. Lane accumulators in float, summed
+/// in double.
+template <int C>
+void accumulate_normal_equations(const float* const* J, int count, const float* w, const float* r,
+                                 Matrix8d& H, Vector8d& g) {
+  static_assert(C >= 1 && C <= 8);
+  detail::accumulate_rows<C>(J, pad_to_lanes(count), w, r, H, g,
+                             std::make_integer_sequence<int, C>{});
+}
+
+}  // namespace kestrel::odometry::kernels

@@ -1,0 +1,240 @@
+// The per-iteration alignment kernels against direct per-point formulas: the SIMD warp against
+// the scalar reference and a linear image (exact under bilinear sampling), the Tukey sums
+// against robust_weights.hpp point by point, the normal equations against an Eigen product.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <limits>
+#include <opencv2/core.hpp>
+#include <random>
+#include <vector>
+
+#include "kestrel/odometry/alignment_kernels.hpp"
+#include "kestrel/odometry/robust_weights.hpp"
+
+namespace kestrel::odometry::kernels {
+namespace {
+
+constexpr float kC = 4.6851F;
+
+struct Points {
+  std::vector<float> x, y, z, intensity;
+  explicit Points(int n)
+      : x(static_cast<std::size_t>(pad_to_lanes(n))),
+        y(x.size()),
+        z(x.size()),
+        intensity(x.size()),
+        count(n) {}
+  int count;
+  PointsView view() const { return {x.data(), y.data(), z.data(), intensity.data(), count}; }
+};
+
+// I(u, v) = 0.1 + 0.002 u + 0.001 v: bilinear interpolation reproduces it exactly.
+cv::Mat ramp_image(int w, int h) {
+  cv::Mat m(h, w, CV_32FC1);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) m.at<float>(v, u) = 0.1F + 0.002F * u + 0.001F * v;
+  }
+  return m;
+}
+
+LevelImage level_of(const cv::Mat& m) {
+  return {m.ptr<float>(), static_cast<int>(m.step1()), m.cols, m.rows, 300.0F, 300.0F, 80.0F,
+          60.0F};
+}
+
+// Random points, some behind the camera, outside the image or NaN.
+Points random_points(int n, std::mt19937& rng) {
+  Points p(n);
+  std::uniform_real_distribution<float> u(-20.0F, 180.0F), v(-20.0F, 140.0F), z(0.3F, 5.0F),
+      grey(0.0F, 1.0F), pick(0.0F, 1.0F);
+  for (int i = 0; i < n; ++i) {
+    const auto s = static_cast<std::size_t>(i);
+    const float Z = z(rng);
+    p.x[s] = (u(rng) - 80.0F) / 300.0F * Z;
+    p.y[s] = (v(rng) - 60.0F) / 300.0F * Z;
+    p.z[s] = Z;
+    p.intensity[s] = grey(rng);
+    const float k = pick(rng);
+    if (k < 0.03F) p.z[s] = -Z;                                       // behind the camera
+    if (k > 0.97F) p.x[s] = std::numeric_limits<float>::quiet_NaN();  // invalid depth
+  }
+  return p;
+}
+
+TEST(AlignmentKernels, WarpMatchesTheScalarReferenceOnEveryPoint) {
+  std::mt19937 rng(11);
+  const cv::Mat image = [] {
+    cv::Mat m(120, 160, CV_32FC1);
+    cv::randu(m, 0.0F, 1.0F);
+    return m;
+  }();
+  const SE3 T = SE3::exp((Vector6d() << 0.02, -0.01, 0.03, 0.02, -0.03, 0.01).finished());
+  for (int n : {0, 1, 7, 8, 9, 1003}) {
+    const Points p = random_points(n, rng);
+    std::vector<float> r_simd(p.x.size(), -1.0F), r_ref(p.x.size(), -1.0F);
+    std::vector<std::uint8_t> v_simd(p.x.size(), 7), v_ref(p.x.size(), 7);
+    const int in_simd = warp_residuals(p.view(), level_of(image), FloatPose::from(T), 1.1F, -0.05F,
+                                       r_simd.data(), v_simd.data());
+    const int in_ref = warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(T), 1.1F,
+                                             -0.05F, r_ref.data(), v_ref.data());
+    ASSERT_EQ(in_simd, in_ref) << n << " points";
+    int valid = 0;
+    for (int i = 0; i < n; ++i) {
+      const auto s = static_cast<std::size_t>(i);
+      ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
+      ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
+      // The random image changes by up to 1 per pixel and u, v round differently by ~1e-5 px.
+      EXPECT_NEAR(r_simd[s], r_ref[s], 1e-4F) << "point " << i;
+      if (v_simd[s] == 0) {
+        EXPECT_EQ(r_simd[s], 0.0F);
+      }
+      valid += v_simd[s];
+    }
+    EXPECT_EQ(valid, in_simd);
+    if (n > 100) {
+      EXPECT_GT(in_simd, n / 2);  // the test exercises both kinds of point
+      EXPECT_LT(in_simd, n);
+    }
+  }
+}
+
+TEST(AlignmentKernels, WarpOfALinearImageGivesTheKnownResidual) {
+  const cv::Mat image = ramp_image(160, 120);
+  const SE3 T = SE3::exp((Vector6d() << 0.05, 0.02, -0.1, 0.0, 0.02, 0.01).finished());
+  const FloatPose pose = FloatPose::from(T);
+  Points p(64);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(20.0F, 140.0F), v(20.0F, 100.0F), z(1.0F, 3.0F);
+  for (std::size_t i = 0; i < 64; ++i) {
+    const float Z = z(rng);
+    p.x[i] = (u(rng) - 80.0F) / 300.0F * Z;
+    p.y[i] = (v(rng) - 60.0F) / 300.0F * Z;
+    p.z[i] = Z;
+    p.intensity[i] = 0.3F;
+  }
+  std::vector<float> r(p.x.size());
+  std::vector<std::uint8_t> valid(p.x.size());
+  const int inside =
+      warp_residuals(p.view(), level_of(image), pose, 0.9F, 0.02F, r.data(), valid.data());
+  int expected_inside = 0;
+  for (std::size_t i = 0; i < 64; ++i) {
+    const Eigen::Vector3d Q = T * Eigen::Vector3d(p.x[i], p.y[i], p.z[i]);
+    const double uq = 300.0 * Q.x() / Q.z() + 80.0;
+    const double vq = 300.0 * Q.y() / Q.z() + 60.0;
+    const bool in = uq >= 0.0 && uq < 159.0 && vq >= 0.0 && vq < 119.0;
+    expected_inside += in ? 1 : 0;
+    EXPECT_EQ(valid[i], in ? 1 : 0) << "point " << i << " at " << uq << ", " << vq;
+    if (!in) continue;
+    const double expected = 0.9 * (0.1 + 0.002 * uq + 0.001 * vq) + 0.02 - 0.3;
+    EXPECT_NEAR(r[i], expected, 2e-5) << "point " << i;
+  }
+  EXPECT_EQ(inside, expected_inside);
+  EXPECT_GT(inside, 48);
+}
+
+// Bilinear sampling reads (u + 1, v + 1): the last column and row are outside, for the 8-wide
+// and the scalar tail alike.
+TEST(AlignmentKernels, LastColumnAndRowAreOutside) {
+  const cv::Mat image = ramp_image(160, 120);
+  const float us[] = {0.01F, 158.99F, 159.0F, 80.0F, 80.0F, -0.001F, 40.0F, 40.0F, 159.0F};
+  const float vs[] = {0.01F, 118.99F, 60.0F, 119.0F, 118.0F, 10.0F, 40.0F, 40.0F, 119.0F};
+  const std::uint8_t expected[] = {1, 1, 0, 0, 1, 0, 1, 1, 0};
+  Points p(9);
+  for (std::size_t i = 0; i < 9; ++i) {
+    p.x[i] = (us[i] - 80.0F) / 300.0F * 2.0F;
+    p.y[i] = (vs[i] - 60.0F) / 300.0F * 2.0F;
+    p.z[i] = 2.0F;
+  }
+  std::vector<float> r(p.x.size());
+  std::vector<std::uint8_t> valid(p.x.size());
+  EXPECT_EQ(warp_residuals(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F, 0.0F, r.data(),
+                           valid.data()),
+            5);
+  for (std::size_t i = 0; i < 9; ++i) EXPECT_EQ(valid[i], expected[i]) << "point " << i;
+}
+
+TEST(AlignmentKernels, TukeySumsMatchThePerPointFunctions) {
+  std::mt19937 rng(2);
+  std::normal_distribution<float> noise(0.0F, 0.05F);
+  std::bernoulli_distribution outside(0.1);
+  for (int n : {5, 8, 1001}) {
+    std::vector<float> r(static_cast<std::size_t>(n)), w(r.size(), -1.0F);
+    std::vector<std::uint8_t> valid(r.size());
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      r[i] = noise(rng) * (i % 7 == 0 ? 10.0F : 1.0F);  // outliers beyond c sigma
+      valid[i] = outside(rng) ? 0 : 1;
+    }
+    const float inv_sigma = 1.0F / 0.04F;
+    double cost = 0.0;
+    int inliers = 0;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const float u = r[i] * inv_sigma;
+      cost += static_cast<double>(valid[i] ? tukey_cost(u, kC) : kC * kC / 6.0F);
+      inliers += (valid[i] && std::fabs(u) < kC) ? 1 : 0;
+    }
+    EXPECT_NEAR(tukey_cost_sum(r.data(), valid.data(), n, inv_sigma, kC), cost, 1e-4 * cost);
+    const WeightSums sums = tukey_weights(r.data(), valid.data(), n, inv_sigma, kC, w.data());
+    EXPECT_NEAR(sums.cost, cost, 1e-4 * cost);
+    EXPECT_EQ(sums.inliers, inliers);
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const float expected =
+          valid[i] ? tukey_weight(r[i] * inv_sigma, kC) * inv_sigma * inv_sigma : 0.0F;
+      EXPECT_NEAR(w[i], expected, 1e-5F * inv_sigma * inv_sigma) << "point " << i;
+    }
+  }
+}
+
+TEST(AlignmentKernels, AbsoluteResidualsOfValidPointsArePacked) {
+  const std::vector<float> r = {-1.0F, 2.0F, -3.0F, 4.0F, -5.0F};
+  const std::vector<std::uint8_t> valid = {1, 0, 1, 0, 1};
+  std::vector<float> out(r.size());
+  ASSERT_EQ(gather_abs_valid(r.data(), valid.data(), 5, out.data()), 3);
+  EXPECT_EQ(out[0], 1.0F);
+  EXPECT_EQ(out[1], 3.0F);
+  EXPECT_EQ(out[2], 5.0F);
+}
+
+template <int C>
+void check_normal_equations(int n, std::mt19937& rng) {
+  const int padded = pad_to_lanes(n);
+  std::uniform_real_distribution<float> d(-1.0F, 1.0F), pos(0.0F, 2.0F);
+  std::vector<std::vector<float>> cols(C,
+                                       std::vector<float>(static_cast<std::size_t>(padded), 0.0F));
+  std::vector<float> w(static_cast<std::size_t>(padded), 0.0F), r(w.size(), 0.0F);
+  Eigen::MatrixXd J(n, C);
+  Eigen::VectorXd wv(n), rv(n);
+  for (int i = 0; i < n; ++i) {
+    const auto s = static_cast<std::size_t>(i);
+    for (int c = 0; c < C; ++c) J(i, c) = cols[static_cast<std::size_t>(c)][s] = d(rng);
+    wv(i) = w[s] = pos(rng);
+    rv(i) = r[s] = d(rng);
+  }
+  const float* Jp[C];
+  for (int c = 0; c < C; ++c) Jp[c] = cols[static_cast<std::size_t>(c)].data();
+  Matrix8d H = Matrix8d::Identity();  // the kernel adds to what is there
+  Vector8d g = Vector8d::Ones();
+  accumulate_normal_equations<C>(Jp, n, w.data(), r.data(), H, g);
+  const Eigen::MatrixXd H_ref = J.transpose() * wv.asDiagonal() * J;
+  const Eigen::VectorXd g_ref = J.transpose() * (wv.array() * rv.array()).matrix();
+  const double tol = 1e-5 * std::max(1, n);
+  for (int a = 0; a < 8; ++a) {
+    for (int b = 0; b < 8; ++b) {
+      const double expected = (a < C && b < C ? H_ref(a, b) : 0.0) + (a == b ? 1.0 : 0.0);
+      EXPECT_NEAR(H(a, b), expected, tol) << C << " columns, H(" << a << ", " << b << ")";
+    }
+    EXPECT_NEAR(g(a), (a < C ? g_ref(a) : 0.0) + 1.0, tol) << C << " columns, g(" << a << ")";
+  }
+}
+
+TEST(AlignmentKernels, NormalEquationsEqualTheDenseProduct) {
+  std::mt19937 rng(9);
+  for (int n : {1, 8, 13, 777}) {
+    check_normal_equations<8>(n, rng);
+    check_normal_equations<6>(n, rng);
+  }
+}
+
+}  // namespace
+}  // namespace kestrel::odometry::kernels
