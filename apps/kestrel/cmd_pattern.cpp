@@ -56,11 +56,15 @@ void add_pattern_command(CLI::App& app) {
       "pattern", "Generate the projector pattern: random lines of random colour, position and "
                  "orientation (thesis 2.3); the same seed gives the same image.");
   auto& o = args->options;
-  cmd->add_option("--lines", o.lines, "number of line segments")->capture_default_str();
+  cmd->add_option("--lines", o.lines, "number of lines")->capture_default_str();
   cmd->add_option("--width", o.width, "image width [px] (projector resolution)")->capture_default_str();
   cmd->add_option("--height", o.height, "image height [px]")->capture_default_str();
-  cmd->add_option("--min-length", o.min_length_px, "shortest segment [px]")->capture_default_str();
-  cmd->add_option("--max-length", o.max_length_px, "longest segment [px]")->capture_default_str();
+  cmd->add_flag("--segments{false}", o.full_lines,
+                "draw segments of --min-length..--max-length instead of lines across the image");
+  cmd->add_option("--min-length", o.min_length_px, "shortest segment [px] (--segments)")
+      ->capture_default_str();
+  cmd->add_option("--max-length", o.max_length_px, "longest segment [px] (--segments)")
+      ->capture_default_str();
   cmd->add_option("--min-thickness", o.min_thickness_px, "thinnest line [px]")->capture_default_str();
   cmd->add_option("--max-thickness", o.max_thickness_px, "thickest line [px]")->capture_default_str();
   cmd->add_option("--colors", args->colors, "colour set: primaries, random or white")

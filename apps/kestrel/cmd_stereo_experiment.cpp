@@ -42,6 +42,9 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   if (cmd.count("--block") > 0) o.matcher.block_size = args.options.matcher.block_size;
   if (cmd.count("--max-disparity") > 0) o.matcher.max_disparity = args.options.matcher.max_disparity;
   if (cmd.count("--lines") > 0) o.pattern.lines = args.options.pattern.lines;
+  if (cmd.count("--segments") > 0) o.pattern.full_lines = false;
+  if (cmd.count("--min-length") > 0) o.pattern.min_length_px = args.options.pattern.min_length_px;
+  if (cmd.count("--max-length") > 0) o.pattern.max_length_px = args.options.pattern.max_length_px;
   if (cmd.count("--noise") > 0) o.intensity_sigma = args.options.intensity_sigma;
   if (cmd.count("--mode") > 0) args.odo_mode = args.mode;
   o.active_mode = sensor::parse_projector_mode(args.odo_mode);
@@ -155,6 +158,14 @@ void add_stereo_experiment_command(CLI::App& app) {
   cmd->add_option("--mode", args->mode, "active lighting: dark (pattern only) or ambient (+ pattern)")
       ->capture_default_str();
   cmd->add_option("--lines", o.pattern.lines, "pattern line count")->capture_default_str();
+  cmd->add_flag("--segments{false}", o.pattern.full_lines,
+                "pattern of segments (--min-length..--max-length) instead of lines across it");
+  cmd->add_option("--min-length", o.pattern.min_length_px,
+                  "pattern: shortest segment [projector px] (--segments)")
+      ->capture_default_str();
+  cmd->add_option("--max-length", o.pattern.max_length_px,
+                  "pattern: longest segment [projector px] (--segments)")
+      ->capture_default_str();
   cmd->add_option("--projector-fov", o.projector.horizontal_fov_deg,
                   "projector horizontal field of view [deg]")
       ->capture_default_str();

@@ -39,8 +39,13 @@ void PatternOptions::validate() const {
 
 std::string PatternOptions::describe() const {
   std::ostringstream os;
-  os << lines << " lines, " << width << "x" << height << ", length [" << min_length_px << ", "
-     << max_length_px << "] px, thickness [" << min_thickness_px << ", " << max_thickness_px
+  os << lines << " lines, " << width << "x" << height;
+  if (full_lines) {
+    os << ", across the image";
+  } else {
+    os << ", segments of [" << min_length_px << ", " << max_length_px << "] px";
+  }
+  os << ", thickness [" << min_thickness_px << ", " << max_thickness_px
      << "] px, colours " << pattern_colors_name(colors)
      << (antialiased ? ", antialiased" : "");
   return os.str();
@@ -70,11 +75,15 @@ cv::Mat generate_pattern(const PatternOptions& options, std::uint64_t seed) {
                                           {255, 255, 0}, {255, 0, 255}, {0, 255, 255},
                                           {255, 255, 255}};
   for (int i = 0; i < options.lines; ++i) {
-    // Centre anywhere (segments may leave the image), orientation uniform over [0, pi).
+    // Centre anywhere (segments may leave the image), orientation uniform over [0, pi). The
+    // length is drawn in both modes so that a seed gives the same positions and colours.
     const double cx = uniform(rng, 0.0, options.width);
     const double cy = uniform(rng, 0.0, options.height);
     const double angle = uniform(rng, 0.0, std::numbers::pi);
-    const double length = uniform(rng, options.min_length_px, options.max_length_px);
+    const double segment = uniform(rng, options.min_length_px, options.max_length_px);
+    // Twice the diagonal: from any point of the image both ends lie outside it.
+    const double length =
+        options.full_lines ? 2.0 * std::hypot(options.width, options.height) : segment;
     const int thickness = uniform_int(rng, options.min_thickness_px, options.max_thickness_px);
     cv::Scalar color;
     switch (options.colors) {

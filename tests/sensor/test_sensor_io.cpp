@@ -35,6 +35,35 @@ TEST(Pattern, DeterministicPerSeed) {
   EXPECT_GT(cv::countNonZero(gray) / double(gray.total()), covered);
 }
 
+// A line given by a position and an orientation crosses the image (thesis 2.3 names no length):
+// a single full line reaches the border at both ends; a short segment far inside does not.
+TEST(Pattern, FullLinesCrossTheImageSegmentsDoNot) {
+  PatternOptions o;
+  o.lines = 1;
+  o.width = 320;
+  o.height = 180;
+  o.colors = PatternColors::kWhite;
+  auto border_lit = [](const cv::Mat& p) {
+    cv::Mat grey;
+    cv::cvtColor(p, grey, cv::COLOR_BGR2GRAY);
+    const int w = grey.cols, h = grey.rows;
+    return cv::countNonZero(grey.row(0)) + cv::countNonZero(grey.row(h - 1)) +
+           cv::countNonZero(grey.col(0)) + cv::countNonZero(grey.col(w - 1));
+  };
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const cv::Mat full = generate_pattern(o, seed);
+    EXPECT_GE(border_lit(full), 2) << "seed " << seed;
+  }
+  o.full_lines = false;
+  o.min_length_px = 4.0;
+  o.max_length_px = 4.0;
+  int segments_on_border = 0;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    segments_on_border += border_lit(generate_pattern(o, seed)) > 0 ? 1 : 0;
+  }
+  EXPECT_LT(segments_on_border, 5);
+}
+
 TEST(Pattern, ColourSetsAndBadOptions) {
   PatternOptions o;
   o.width = 64;
