@@ -18,6 +18,9 @@ const std::vector<CatalogueEntry> kScenes = {
     {"corridor",
      "30 m corridor, 2 m wide, with nearly textureless walls (+-1.5 % contrast), "
      "doors and skirting boards; three ceiling lights"},
+    {"bare_corridor",
+     "the corridor without doors or skirting: walls, floor and ceiling of nearly uniform "
+     "paint (+-1.5 % contrast); three ceiling lights"},
     {"wall",
      "a plain low-texture wall 3 m ahead with a textured box before it (the thesis' "
      "passive vs active stereo experiment, fig. 2.7)"},
@@ -167,8 +170,33 @@ Scene make_corridor(std::uint64_t seed) {
   return scene;
 }
 
+Scene make_bare_corridor(std::uint64_t seed) {
+  Scene scene("bare_corridor", std::string(kScenes[2].description));
+  constexpr double x0 = -5.0, length = 30.0, half_width = 1.0, height = 2.6;
+  const auto wall_tex =
+      share(make_low_contrast_texture({0.74F, 0.76F, 0.78F}, 0.015, tex_seed(seed, 1)));
+  const auto floor_tex =
+      share(make_low_contrast_texture({0.52F, 0.50F, 0.46F}, 0.015, tex_seed(seed, 2)));
+  const auto ceiling_tex =
+      share(make_low_contrast_texture({0.86F, 0.86F, 0.86F}, 0.01, tex_seed(seed, 3)));
+  scene.add(rect({x0, -half_width, 0}, kX, kY, length, 2 * half_width, material(floor_tex)));
+  scene.add(rect({x0, half_width, height}, kX, -kY, length, 2 * half_width, material(ceiling_tex)));
+  scene.add(rect({x0, half_width, 0}, kX, kZ, length, height, material(wall_tex)));
+  scene.add(rect({x0 + length, -half_width, 0}, -kX, kZ, length, height, material(wall_tex)));
+  scene.add(
+      rect({x0 + length, half_width, 0}, -kY, kZ, 2 * half_width, height, material(wall_tex)));
+  scene.add(rect({x0, -half_width, 0}, kY, kZ, 2 * half_width, height, material(wall_tex)));
+  scene.set_ambient(0.45F);
+  for (const double x : {0.0, 8.0, 16.0}) {
+    scene.add_light(std::make_shared<PointLight>(Eigen::Vector3d(x, 0.0, 2.5),
+                                                 ColorBgr(0.5F, 0.5F, 0.5F), 3.0));
+  }
+  scene.set_T_world_start(start_at(0.0, 0.0, 1.2));
+  return scene;
+}
+
 Scene make_wall(std::uint64_t seed) {
-  Scene scene("wall", std::string(kScenes[2].description));
+  Scene scene("wall", std::string(kScenes[3].description));
   const auto wall_tex =
       share(make_low_contrast_texture({0.78F, 0.80F, 0.80F}, 0.01, tex_seed(seed, 1)));
   const auto floor_tex =
@@ -192,7 +220,7 @@ Scene make_wall(std::uint64_t seed) {
 }
 
 Scene make_checker(std::uint64_t seed) {
-  Scene scene("checker", std::string(kScenes[3].description));
+  Scene scene("checker", std::string(kScenes[4].description));
   const auto ground_tex =
       share(make_checkerboard_texture(0.25, {0.15F, 0.15F, 0.15F}, {0.85F, 0.85F, 0.85F}));
   const auto wall_tex =
@@ -225,6 +253,7 @@ const std::vector<CatalogueEntry>& scene_catalogue() { return kScenes; }
 Scene make_scene(std::string_view name, std::uint64_t texture_seed) {
   if (name == "office") return make_office(texture_seed);
   if (name == "corridor") return make_corridor(texture_seed);
+  if (name == "bare_corridor") return make_bare_corridor(texture_seed);
   if (name == "wall") return make_wall(texture_seed);
   if (name == "checker") return make_checker(texture_seed);
   throw InputError("unknown scene '" + std::string(name) + "' (valid: " + catalogue_names(kScenes) +
