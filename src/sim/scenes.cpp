@@ -126,20 +126,20 @@ Scene make_office(std::uint64_t seed) {
   return scene;
 }
 
-Scene make_corridor(std::uint64_t seed) {
-  Scene scene("corridor", std::string(kScenes[1].description));
-  // Corridor x in [-5, 25], y in [-1, 1], z in [0, 2.6].
-  constexpr double x0 = -5.0, length = 30.0, half_width = 1.0, height = 2.6;
+// Corridor x in [-5, 25], y in [-1, 1], z in [0, 2.6]: floor, ceiling, walls and three
+// ceiling lights; the floor's texture contrast is the caller's.
+constexpr double kCorridorX0 = -5.0, kCorridorLength = 30.0, kCorridorHalfWidth = 1.0,
+                 kCorridorHeight = 2.6;
+
+void add_corridor_shell(Scene& scene, std::uint64_t seed, double floor_contrast) {
+  constexpr double x0 = kCorridorX0, length = kCorridorLength, half_width = kCorridorHalfWidth,
+                   height = kCorridorHeight;
   const auto wall_tex =
       share(make_low_contrast_texture({0.74F, 0.76F, 0.78F}, 0.015, tex_seed(seed, 1)));
   const auto floor_tex =
-      share(make_low_contrast_texture({0.52F, 0.50F, 0.46F}, 0.04, tex_seed(seed, 2)));
+      share(make_low_contrast_texture({0.52F, 0.50F, 0.46F}, floor_contrast, tex_seed(seed, 2)));
   const auto ceiling_tex =
       share(make_low_contrast_texture({0.86F, 0.86F, 0.86F}, 0.01, tex_seed(seed, 3)));
-  const auto door_tex =
-      share(make_low_contrast_texture({0.30F, 0.42F, 0.55F}, 0.03, tex_seed(seed, 4)));
-  const auto skirting_tex = share(Texture::constant({0.35F, 0.35F, 0.36F}));
-
   scene.add(rect({x0, -half_width, 0}, kX, kY, length, 2 * half_width, material(floor_tex)));
   scene.add(rect({x0, half_width, height}, kX, -kY, length, 2 * half_width, material(ceiling_tex)));
   scene.add(rect({x0, half_width, 0}, kX, kZ, length, height, material(wall_tex)));
@@ -147,6 +147,21 @@ Scene make_corridor(std::uint64_t seed) {
   scene.add(
       rect({x0 + length, half_width, 0}, -kY, kZ, 2 * half_width, height, material(wall_tex)));
   scene.add(rect({x0, -half_width, 0}, kY, kZ, 2 * half_width, height, material(wall_tex)));
+  scene.set_ambient(0.45F);
+  for (const double x : {0.0, 8.0, 16.0}) {
+    scene.add_light(std::make_shared<PointLight>(Eigen::Vector3d(x, 0.0, 2.5),
+                                                 ColorBgr(0.5F, 0.5F, 0.5F), 3.0));
+  }
+  scene.set_T_world_start(start_at(0.0, 0.0, 1.2));
+}
+
+Scene make_corridor(std::uint64_t seed) {
+  Scene scene("corridor", std::string(kScenes[1].description));
+  add_corridor_shell(scene, seed, 0.04);
+  constexpr double x0 = kCorridorX0, length = kCorridorLength, half_width = kCorridorHalfWidth;
+  const auto door_tex =
+      share(make_low_contrast_texture({0.30F, 0.42F, 0.55F}, 0.03, tex_seed(seed, 4)));
+  const auto skirting_tex = share(Texture::constant({0.35F, 0.35F, 0.36F}));
   // Skirting boards and doors, 5 mm before the walls.
   constexpr double inset = 0.005;
   scene.add(rect({x0, half_width - inset, 0}, kX, kZ, length, 0.1, material(skirting_tex)));
@@ -161,37 +176,13 @@ Scene make_corridor(std::uint64_t seed) {
           rect({x + 0.9, -half_width + 2 * inset, 0}, -kX, kZ, 0.9, 2.05, material(door_tex)));
     }
   }
-  scene.set_ambient(0.45F);
-  for (const double x : {0.0, 8.0, 16.0}) {
-    scene.add_light(std::make_shared<PointLight>(Eigen::Vector3d(x, 0.0, 2.5),
-                                                 ColorBgr(0.5F, 0.5F, 0.5F), 3.0));
-  }
-  scene.set_T_world_start(start_at(0.0, 0.0, 1.2));
   return scene;
 }
 
+// The corridor without doors or skirting, the floor as plain as the walls.
 Scene make_bare_corridor(std::uint64_t seed) {
   Scene scene("bare_corridor", std::string(kScenes[2].description));
-  constexpr double x0 = -5.0, length = 30.0, half_width = 1.0, height = 2.6;
-  const auto wall_tex =
-      share(make_low_contrast_texture({0.74F, 0.76F, 0.78F}, 0.015, tex_seed(seed, 1)));
-  const auto floor_tex =
-      share(make_low_contrast_texture({0.52F, 0.50F, 0.46F}, 0.015, tex_seed(seed, 2)));
-  const auto ceiling_tex =
-      share(make_low_contrast_texture({0.86F, 0.86F, 0.86F}, 0.01, tex_seed(seed, 3)));
-  scene.add(rect({x0, -half_width, 0}, kX, kY, length, 2 * half_width, material(floor_tex)));
-  scene.add(rect({x0, half_width, height}, kX, -kY, length, 2 * half_width, material(ceiling_tex)));
-  scene.add(rect({x0, half_width, 0}, kX, kZ, length, height, material(wall_tex)));
-  scene.add(rect({x0 + length, -half_width, 0}, -kX, kZ, length, height, material(wall_tex)));
-  scene.add(
-      rect({x0 + length, half_width, 0}, -kY, kZ, 2 * half_width, height, material(wall_tex)));
-  scene.add(rect({x0, -half_width, 0}, kY, kZ, 2 * half_width, height, material(wall_tex)));
-  scene.set_ambient(0.45F);
-  for (const double x : {0.0, 8.0, 16.0}) {
-    scene.add_light(std::make_shared<PointLight>(Eigen::Vector3d(x, 0.0, 2.5),
-                                                 ColorBgr(0.5F, 0.5F, 0.5F), 3.0));
-  }
-  scene.set_T_world_start(start_at(0.0, 0.0, 1.2));
+  add_corridor_shell(scene, seed, 0.015);
   return scene;
 }
 
