@@ -1,9 +1,8 @@
 // The inner loop of the direct tracker with a run-time backend: warp + bilinear sample +
 // residual of every reference point, then Tukey weights, robust cost, inliers and the 8x8
-// normal equations (DirectTracker's warp_residuals and accumulate_normal_equations, thesis
-// 3.7-3.8). The CPU path is a line-by-line copy of the tracker's loops (they are private to
-// src/odometry/direct_tracker.cpp); the CUDA path runs the functions of device/photometric.hpp
-// with a block reduction. docs/gpu.md states the tolerances.
+// normal equations (thesis 3.7-3.8). The CPU path calls the tracker's own kernels
+// (odometry/alignment_kernels.hpp: AVX2 where compiled for it); the CUDA path runs the functions
+// of device/photometric.hpp with a block reduction. docs/gpu.md states the tolerances.
 #pragma once
 
 #include <cstdint>
