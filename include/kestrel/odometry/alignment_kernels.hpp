@@ -75,17 +75,17 @@ WeightSums tukey_weights(const float* residual, const std::uint8_t* valid, int c
 /// robust_sigma, thesis eq. 3.40).
 int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count, float* out);
 
+#if defined(__AVX2__) && defined(__FMA__)
 namespace detail {
 
-// Row A of the normal equations: sum w J_A J_b for b = A..C-1 and sum w J_A r, each in one lane
-// accumulator (C - A + 1 <= 9 of them: they stay in registers, unlike the 44 of all rows at
-// once, which spilled: 63 us per 6000 points before, see bench BM_NormalEquations).
+// Row A of the normal equations: sum w J_A J_b for b = A..C-1 and sum w J_A r, each in one AVX
+// accumulator (C - A + 1 <= 9 of them: they stay in registers, unlike the 44 lane arrays of all
+// rows at once, which spilled: 63.1 -> 10.1 us per 6000 points, bench BM_NormalEquations).
 template <int A, int C>
 void accumulate_row(const float* const* J, int n, const float* w, const float* r, double* row) {
   constexpr int kTerms = C - A + 1;
-  const float* ja = J[A];
-#if defined(__AVX2__) && defined(__FMA__)
   static_assert(kLanes == 8);
+  const float* ja = J[A];
   __m256 acc[kTerms];
 #pragma GCC unroll 16
   for (int t = 0; t < kTerms; ++t) acc[t] = _mm256_setzero_ps();
@@ -104,23 +104,6 @@ void accumulate_row(const float* const* J, int n, const float* w, const float* r
     for (float x : lanes) s += static_cast<double>(x);
     row[t] = s;
   }
-#else
-  alignas(32) float acc[kTerms][kLanes] = {};
-  for (int i = 0; i < n; i += kLanes) {
-    float wa[kLanes];
-    for (int k = 0; k < kLanes; ++k) wa[k] = w[i + k] * ja[i + k];
-    for (int b = A; b < C; ++b) {
-      const float* jb = J[b];
-      for (int k = 0; k < kLanes; ++k) acc[b - A][k] += wa[k] * jb[i + k];
-    }
-    for (int k = 0; k < kLanes; ++k) acc[kTerms - 1][k] += wa[k] * r[i + k];
-  }
-  for (int t = 0; t < kTerms; ++t) {
-    double s = 0.0;
-    for (int k = 0; k < kLanes; ++k) s += static_cast<double>(acc[t][k]);
-    row[t] = s;
-  }
-#endif
 }
 
 template <int C, int... A>
@@ -139,16 +122,52 @@ void accumulate_rows(const float* const* J, int n, const float* w, const float* 
 }
 
 }  // namespace detail
+#endif
 
 /// Adds sum_i w_i J_i J_i^T and sum_i w_i J_i r_i over the first C columns of J (column-major
 /// arrays J[0..C-1], padded to kLanes with w = 0) to H and g. Lane accumulators in float, summed
 /// in double.
 template <int C>
-void accumulate_normal_equations(const float* const* J, int count, const float* w, const float* r,
-                                 Matrix8d& H, Vector8d& g) {
+void accumulate_normal_equations(const float* const* J, int count, const float* w,
+                                 const float* r, Matrix8d& H, Vector8d& g) {
   static_assert(C >= 1 && C <= 8);
-  detail::accumulate_rows<C>(J, pad_to_lanes(count), w, r, H, g,
-                             std::make_integer_sequence<int, C>{});
+  const int n = pad_to_lanes(count);
+#if defined(__AVX2__) && defined(__FMA__)
+  detail::accumulate_rows<C>(J, n, w, r, H, g, std::make_integer_sequence<int, C>{});
+#else
+  // All terms at once in lane arrays the compiler vectorises (row by row measured 2x slower
+  // when left to the auto-vectoriser).
+  constexpr int kH = C * (C + 1) / 2;
+  alignas(32) float acc[kH + C][kLanes] = {};
+  for (int i = 0; i < n; i += kLanes) {
+    float wj[C][kLanes];
+    for (int a = 0; a < C; ++a) {
+      for (int k = 0; k < kLanes; ++k) wj[a][k] = w[i + k] * J[a][i + k];
+    }
+    int term = 0;
+    for (int a = 0; a < C; ++a) {
+      for (int b = a; b < C; ++b, ++term) {
+        for (int k = 0; k < kLanes; ++k) acc[term][k] += wj[a][k] * J[b][i + k];
+      }
+    }
+    for (int a = 0; a < C; ++a) {
+      for (int k = 0; k < kLanes; ++k) acc[kH + a][k] += wj[a][k] * r[i + k];
+    }
+  }
+  auto sum = [&](int t) {
+    double s = 0.0;
+    for (int k = 0; k < kLanes; ++k) s += static_cast<double>(acc[t][k]);
+    return s;
+  };
+  int term = 0;
+  for (int a = 0; a < C; ++a) {
+    for (int b = a; b < C; ++b, ++term) {
+      H(a, b) += sum(term);
+      if (b != a) H(b, a) += sum(term);
+    }
+  }
+  for (int a = 0; a < C; ++a) g(a) += sum(kH + a);
+#endif
 }
 
 }  // namespace kestrel::odometry::kernels
