@@ -47,11 +47,11 @@ struct RenderArgs {
 void print_catalogues(std::ostream& os) {
   os << "scenes (--scene):\n";
   for (const auto& e : sim::scene_catalogue()) {
-    os << "  " << std::left << std::setw(10) << e.name << e.description << "\n";
+    os << "  " << std::left << std::setw(15) << e.name << e.description << "\n";
   }
   os << "trajectories (--trajectory):\n";
   for (const auto& e : sim::trajectory_catalogue()) {
-    os << "  " << std::left << std::setw(10) << e.name << e.description << "\n";
+    os << "  " << std::left << std::setw(15) << e.name << e.description << "\n";
   }
   os << "noise models (--noise): none, kinect, or a YAML file of SensorNoiseOptions fields\n";
 }

@@ -177,7 +177,9 @@ void add_stereo_experiment_command(CLI::App& app) {
   cmd->add_flag("--odometry", args->odometry,
                 "stereo odometry instead: the corridor sequence rendered passive and active, "
                 "tracked in disparity space (default mode: ambient)");
-  cmd->add_option("--scene", q.scene, "--odometry: scene")->capture_default_str();
+  cmd->add_option("--scene", q.scene,
+                  "--odometry: scene (corridor, bare_corridor, ...: kestrel render --list)")
+      ->capture_default_str();
   cmd->add_option("--trajectory", q.trajectory, "--odometry: trajectory")->capture_default_str();
   cmd->add_option("--frames", q.frames, "--odometry: frames")->capture_default_str();
   cmd->add_option("--rate", q.rate_hz, "--odometry: frame rate [Hz]")->capture_default_str();
