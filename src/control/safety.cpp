@@ -14,11 +14,6 @@ namespace kestrel::control {
 namespace {
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 
-bool finite_estimate(const VehicleStateEstimate& e) {
-  return e.p_world.allFinite() && e.v_world.allFinite() &&
-         e.R_world_body.unit_quaternion().coeffs().allFinite();
-}
-
 AttitudeThrustCommand level(double thrust_N) {
   AttitudeThrustCommand c;
   c.thrust_N = thrust_N;

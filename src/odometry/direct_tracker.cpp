@@ -103,6 +103,15 @@ struct DirectTracker::Impl {
   TimeNs dt_prev = 0;
 
   explicit Impl(const PinholeCamera& cam) : undistorter(cam) {}
+
+  // The current frame's depth levels, built once per frame where a step needs them (the depth
+  // residual, a new reference, the geometric fallback).
+  void ensure_depth_pyramid(const DirectTrackerOptions& o) {
+    if (depth_pyramid_current) return;
+    depth_pyramid.build(depth, o.pyramid_levels,
+                        static_cast<float>(o.depth_pyramid_max_relative_spread));
+    depth_pyramid_current = true;
+  }
 };
 
 DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options)
@@ -196,13 +205,6 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 
 }  // namespace
 
-namespace {
-
-// T_cur_ref in floats, unrolled for the per-point warp loops (no Eigen temporaries per point).
-kernels::FloatPose float_pose(const SE3& T) { return kernels::FloatPose::from(T); }
-
-}  // namespace
-
 struct TrackerAccess {
   // Reference building: gradients, selection and the precomputed IC Jacobians per level.
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
@@ -215,10 +217,8 @@ struct TrackerAccess {
         disparity_at_level(m.disparity, l, static_cast<float>(o.depth_pyramid_max_relative_spread),
                            m.disparity_levels[static_cast<std::size_t>(l)]);
       }
-    } else if (!m.depth_pyramid_current) {
-      m.depth_pyramid.build(m.depth, o.pyramid_levels,
-                            static_cast<float>(o.depth_pyramid_max_relative_spread));
-      m.depth_pyramid_current = true;
+    } else {
+      m.ensure_depth_pyramid(o);
     }
     const bool normals = o.use_depth_residual || o.geometric_fallback;
     std::size_t max_count = 0;
@@ -411,7 +411,8 @@ struct TrackerAccess {
     // Without early exits (a point without a normal or a usable sample gets zero residual,
     // Jacobian and validity): BM_TrackAgainstKeyframeWithDepthResidual 13.8 -> 11.9 ms. GCC 12
     // does not vectorise this loop, nor warp_residuals' ("control flow in loop").
-    const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] = float_pose(T_cur_ref);
+    const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] =
+        kernels::FloatPose::from(T_cur_ref);
     const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
     const float inv_fx = 1.0F / fx, inv_fy = 1.0F / fy;
     const auto umax = static_cast<float>(dep.cols - 1);
@@ -560,8 +561,8 @@ struct TrackerAccess {
                                      L.count};
     const kernels::LevelImage image{cur.ptr<float>(), static_cast<int>(cur.step1()), cur.cols,
                                     cur.rows, L.fx, L.fy, L.cx, L.cy};
-    return kernels::warp_residuals(points, image, float_pose(T_cur_ref), alpha, beta,
-                                   m.residual.data(), m.valid.data());
+    return kernels::warp_residuals(points, image, kernels::FloatPose::from(T_cur_ref), alpha,
+                                   beta, m.residual.data(), m.valid.data());
   }
 };
 
@@ -586,11 +587,7 @@ void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrack
   m.undistorter.undistort_intensity(m.intensity_raw, m.intensity);
   m.undistorter.undistort_depth(f.depth_m, m.depth);
   m.pyramid.build(m.intensity, o.pyramid_levels, o.pyramid_filter);
-  if (o.use_depth_residual) {
-    m.depth_pyramid.build(m.depth, o.pyramid_levels,
-                          static_cast<float>(o.depth_pyramid_max_relative_spread));
-    m.depth_pyramid_current = true;
-  }
+  if (o.use_depth_residual) m.ensure_depth_pyramid(o);
 }
 
 struct LevelStats {
@@ -660,11 +657,7 @@ struct AlignRunner {
         !(jumped || a.result.failure == TrackFailure::kHighResidual)) {
       return a;
     }
-    if (!m.depth_pyramid_current) {
-      m.depth_pyramid.build(m.depth, o.pyramid_levels,
-                            static_cast<float>(o.depth_pyramid_max_relative_spread));
-      m.depth_pyramid_current = true;
-    }
+    m.ensure_depth_pyramid(o);
     AlignOutcome b = align(m, o, T_cur_ref_guess, {true, true});
     b.result.iterations += a.result.iterations;
     if (!b.result.ok()) {
@@ -818,14 +811,9 @@ struct AlignRunner {
         }
         // The geometric residuals' own robust scale, by the same rule (in metres).
         if (geo && !geo_sigma_frozen) {
-          int mvalid = 0;
           float* absr = m.abs_residual.data();
-          const float* rg = m.geo_residual.data();
-          const std::uint8_t* vg = m.geo_valid.data();
-          for (int i = 0; i < n; ++i) {
-            absr[mvalid] = std::fabs(rg[i]);
-            mvalid += vg[i];
-          }
+          const int mvalid =
+              kernels::gather_abs_valid(m.geo_residual.data(), m.geo_valid.data(), n, absr);
           double s = robust_sigma(std::span<float>(absr, static_cast<std::size_t>(mvalid)), 6);
           // Not below the sensor's depth noise at this level's median depth: on exact (rendered)
           // or very clean depth the MAD of a misaligned pair counts the points whose residual

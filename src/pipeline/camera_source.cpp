@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
 
 namespace kestrel::pipeline {
@@ -11,11 +12,7 @@ namespace kestrel::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-
-InputError config_error(const fs::path& config, const std::string& field, const std::string& msg) {
-  if (config.empty()) return InputError("field '" + field + "': " + msg);
-  return InputError(config, field, msg);
-}
+using detail::config_field_error;
 
 }  // namespace
 
@@ -25,12 +22,12 @@ CameraFrameSource::CameraFrameSource(const CameraSourceOptions& options, const f
   try {
     camera_ = std::make_unique<driver::V4l2Camera>(options.device, std::move(io));
   } catch (const driver::DeviceError& e) {
-    throw config_error(config, "camera.device", e.what());  // e.what() starts with the path
+    throw config_field_error(config, "camera.device", e.what());  // e.what() starts with the path
   }
   try {
     format_ = camera_->configure(options.camera);
   } catch (const driver::DeviceError& e) {
-    throw config_error(config, "camera", e.what());  // wrong pixel format or size, busy, ...
+    throw config_field_error(config, "camera", e.what());  // wrong pixel format or size, busy, ...
   }
 }
 
@@ -56,7 +53,7 @@ driver::CaptureReport CameraFrameSource::run(std::size_t max_frames,
   try {
     return driver::capture_stereo(*camera_, format_, decoder_, limits, to_pair, hooks);
   } catch (const driver::DeviceError& e) {
-    throw config_error(config_, "camera.device", e.what());  // e.g. no buffers, STREAMON
+    throw config_field_error(config_, "camera.device", e.what());  // e.g. no buffers, STREAMON
   }
 }
 

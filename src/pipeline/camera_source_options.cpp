@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/driver/bayer.hpp"
 #include "kestrel/io/yaml_file.hpp"
@@ -16,17 +17,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path relative_to(const fs::path& config, const std::string& value) {
-  const fs::path p = value;
-  return p.is_absolute() ? p : config.parent_path() / p;
-}
+using detail::path_in_config;
 
-// "run.yaml: field 'camera.x': message", or "field 'camera.x': message" without a file.
-// An empty key names the block itself.
+// Field `camera.<key>` (an empty key names the block itself).
 InputError field_error(const fs::path& config, const std::string& key, const std::string& msg) {
-  const std::string field = key.empty() ? "camera" : "camera." + key;
-  if (config.empty()) return InputError("field '" + field + "': " + msg);
-  return InputError(config, field, msg);
+  return detail::config_field_error(config, key.empty() ? "camera" : "camera." + key, msg);
 }
 
 }  // namespace
@@ -103,13 +98,13 @@ CameraSourceOptions CameraSourceOptions::from_yaml(const YAML::Node& map, const 
         o.decoder.demosaic = *method;
         decoder_keys.push_back(key);
       } else if (key == "decoder_options") {
-        decoder_file = relative_to(config, v.as<std::string>());
+        decoder_file = path_in_config(config, v.as<std::string>());
       } else if (key == "calibration") {
         if (v.IsSequence()) {
           for (const auto& f : v)
-            o.calibration_files.push_back(relative_to(config, f.as<std::string>()));
+            o.calibration_files.push_back(path_in_config(config, f.as<std::string>()));
         } else {
-          o.calibration_files.push_back(relative_to(config, v.as<std::string>()));
+          o.calibration_files.push_back(path_in_config(config, v.as<std::string>()));
         }
         have_calibration = true;
       } else {

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
@@ -17,9 +18,7 @@ namespace fs = std::filesystem;
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 InputError field_error(const fs::path& config, const std::string& key, const std::string& msg) {
-  const std::string field = "controller." + key;
-  if (config.empty()) return InputError("field '" + field + "': " + msg);
-  return InputError(config, field, msg);
+  return detail::config_field_error(config, "controller." + key, msg);
 }
 
 // The control options file: its `controller:`, `pwm:` and `safety:` sections (each optional),
@@ -97,8 +96,7 @@ ControllerStageOptions ControllerStageOptions::from_yaml(const YAML::Node& node,
           throw InputError("must be in (0, 1] s");
         }
       } else if (key == "controller_options") {
-        const fs::path p = v.as<std::string>();
-        o.controller_options_file = p.is_absolute() ? p : config.parent_path() / p;
+        o.controller_options_file = detail::path_in_config(config, v.as<std::string>());
         load_control_file(o.controller_options_file, o);
       } else if (key == "output") {
         o.output = v.as<std::string>();

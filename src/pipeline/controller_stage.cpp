@@ -4,16 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kestrel/control/types.hpp"
+
 namespace kestrel::pipeline {
-
-namespace {
-
-bool finite(const control::VehicleStateEstimate& e) {
-  return e.p_world.allFinite() && e.v_world.allFinite() &&
-         e.R_world_body.unit_quaternion().coeffs().allFinite();
-}
-
-}  // namespace
 
 ControllerStage::ControllerStage(ControllerStageOptions options, bool fused)
     : options_(std::move(options)),
@@ -71,7 +64,7 @@ ControllerRecord ControllerStage::on_state(const fusion::FusedState& s, TimeNs n
 
   const control::VehicleStateEstimate e = estimate_of(s);
   control::EstimatorHealth health;
-  health.estimate_valid = finite(e);
+  health.estimate_valid = control::finite_estimate(e);
   if (!mission_) {
     // The flight starts with a fresh estimate (as `kestrel fly` starts at t = 0): the first
     // state counts as the last vision update, so a filter that has not updated yet is not a

@@ -4,6 +4,7 @@
 #include <optional>
 #include <sstream>
 
+#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
@@ -13,11 +14,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A path in the config: relative ones are taken from the config file's folder, so that a
-// config and its option files can move together.
 fs::path config_path(const fs::path& config, const YAML::Node& value) {
-  const fs::path p = value.as<std::string>();
-  return p.is_absolute() ? p : config.parent_path() / p;
+  return detail::path_in_config(config, value.as<std::string>());
 }
 
 std::size_t positive_size(const fs::path& config, const std::string& key, const YAML::Node& v) {

@@ -26,6 +26,12 @@ struct VehicleStateEstimate {
   Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();  ///< rad/s (informational)
 };
 
+/// Position, velocity and attitude all finite (what the controller may act on).
+inline bool finite_estimate(const VehicleStateEstimate& e) {
+  return e.p_world.allFinite() && e.v_world.allFinite() &&
+         e.R_world_body.unit_quaternion().coeffs().allFinite();
+}
+
 /// The estimator's health as the safety supervisor sees it.
 struct EstimatorHealth {
   bool estimate_valid = true;       ///< false: the filter has failed (diverged, not initialised)
