@@ -9,11 +9,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <numbers>
+#include <optional>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/interpolation.hpp"
+#include "kestrel/image/rolling_shutter.hpp"
 #include "kestrel/odometry/alignment_kernels.hpp"
 #include "kestrel/odometry/disparity_space.hpp"
 #include "kestrel/odometry/point_selection.hpp"
@@ -102,7 +104,28 @@ struct DirectTracker::Impl {
   TimeNs t_prev = 0;
   TimeNs dt_prev = 0;
 
-  explicit Impl(const PinholeCamera& cam) : undistorter(cam) {}
+  // Rolling shutter (options.rolling_shutter_readout_s > 0; it undistorts as well): the current
+  // frame's raw depth (its raw intensity is intensity_raw), and whether the current, previous
+  // and reference frames were rectified with a known rotation rate (a frame before any motion
+  // estimate is not).
+  std::optional<image::RollingShutterRectifier> rolling_shutter;
+  cv::Mat depth_raw;
+  bool rs_frame_rectified = false, rs_prev_rectified = false, rs_ref_rectified = false;
+
+  Impl(const PinholeCamera& cam, const DirectTrackerOptions& o) : undistorter(cam) {
+    if (o.rolling_shutter_readout_s > 0.0) rolling_shutter.emplace(cam, o.rolling_shutter_readout_s);
+  }
+
+  // The current frame's images and pyramid from the raw ones, undistorted and rectified for the
+  // rotation rate `omega_rad_s` (camera frame).
+  void rectify_rolling_shutter(const Eigen::Vector3d& omega_rad_s, const DirectTrackerOptions& o) {
+    rolling_shutter->set_rotation_rate(omega_rad_s);
+    rolling_shutter->rectify_intensity(intensity_raw, intensity);
+    rolling_shutter->rectify_depth(depth_raw, depth);
+    depth_pyramid_current = false;
+    pyramid.build(intensity, o.pyramid_levels, o.pyramid_filter);
+    if (o.use_depth_residual) ensure_depth_pyramid(o);
+  }
 
   // The current frame's depth levels, built once per frame where a step needs them (the depth
   // residual, a new reference, the geometric fallback).
@@ -117,7 +140,7 @@ struct DirectTracker::Impl {
 DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options)
     : camera_(camera.without_distortion()), options_(options) {
   options_.validate();
-  impl_ = std::make_unique<Impl>(camera);
+  impl_ = std::make_unique<Impl>(camera, options_);
   double s = 1.0;
   for (int l = 0; l < options_.pyramid_levels; ++l, s *= 0.5) {
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
@@ -141,8 +164,12 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
     throw InputError("tracker option compensate_depth_time_offset: needs depth maps; not "
                      "available with disparity input (stereo)");
   }
+  if (options_.rolling_shutter_readout_s > 0.0) {
+    throw InputError("tracker option rolling_shutter_readout_s: RGB-D input only (the stereo "
+                     "path rectifies global-shutter views)");
+  }
   camera_ = rig.left();
-  impl_ = std::make_unique<Impl>(camera_);
+  impl_ = std::make_unique<Impl>(camera_, options_);
   impl_->disparity_input = true;
   impl_->rig = rig;
   impl_->disparity_levels.resize(static_cast<std::size_t>(options_.pyramid_levels));
@@ -584,6 +611,18 @@ void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrack
   std::swap(m.depth_pyramid_current, m.prev_depth_pyramid_current);
   m.depth_pyramid_current = false;
   image::to_intensity(f.image, m.intensity_raw);
+  if (m.rolling_shutter) {
+    // Rolling shutter: rectified with the rotation rate the constant-velocity prior predicts
+    // (the last frame's motion); the raw depth is kept for a later rectification with the
+    // frame's own rate (track_prepared).
+    f.depth_m.copyTo(m.depth_raw);
+    m.rs_frame_rectified = m.has_velocity && m.dt_prev > 0;
+    m.rectify_rolling_shutter(m.rs_frame_rectified
+                                  ? Eigen::Vector3d(m.velocity.so3().log() / ns_to_s(m.dt_prev))
+                                  : Eigen::Vector3d::Zero(),
+                              o);
+    return;
+  }
   m.undistorter.undistort_intensity(m.intensity_raw, m.intensity);
   m.undistorter.undistort_depth(f.depth_m, m.depth);
   m.pyramid.build(m.intensity, o.pyramid_levels, o.pyramid_filter);
@@ -1016,9 +1055,11 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
         : SE3();
   };
   set_depth_time_shift(m.has_prev && m.has_velocity, m.velocity, m.dt_prev);
+  const bool rolling_shutter = options_.rolling_shutter_readout_s > 0.0 && !disparity_input_;
 
   if (!m.has_ref || !m.has_prev) {
     // The first frame defines the world.
+    m.rs_ref_rectified = m.rs_frame_rectified;
     TrackerAccess::build_reference(m, options_, impl_->level_cameras);
     m.ref_t_ns = t_ns;
     m.T_world_ref = SE3();
@@ -1069,6 +1110,7 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
     const bool shift = m.depth_time_shift;
     swap_previous();
     m.depth_time_shift = false;
+    m.rs_ref_rectified = m.rs_prev_rectified;
     TrackerAccess::build_reference(m, options_, impl_->level_cameras);
     swap_previous();
     m.depth_time_shift = shift;
@@ -1104,7 +1146,11 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
     // photometric check) is blurred unlike it: the next frames, blurred alike, are aligned to it
     // (as to a frame that failed).
     const bool blurred = fallback && result.photometric_level > options_.finest_level;
-    const bool switch_kf = blurred ||
+    // Rolling shutter: a keyframe taken before any rate was known (the first frame, or after a
+    // failure) is not rectified, unlike the frames that follow it; so the first frame whose
+    // motion is estimated is rectified with its own rate and becomes the keyframe.
+    const bool rs_restart = rolling_shutter && !m.rs_ref_rectified && !m.rs_frame_rectified && dt > 0;
+    const bool switch_kf = rs_restart || blurred ||
         keyframe_lost || !options_.use_keyframes || result.overlap < options_.keyframe_min_overlap ||
         rotation_angle_deg(T_ref_cur) > options_.keyframe_max_rotation_deg ||
         T_ref_cur.translation().norm() > options_.keyframe_max_translation_rel * L.median_depth;
@@ -1112,6 +1158,11 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
     m.has_velocity = true;
     if (switch_kf) {
       set_depth_time_shift(true, m.velocity, dt);  // with this frame's estimated motion
+      if (rs_restart) {
+        m.rectify_rolling_shutter(m.velocity.so3().log() / ns_to_s(dt), options_);
+        m.rs_frame_rectified = true;
+      }
+      m.rs_ref_rectified = m.rs_frame_rectified;
       TrackerAccess::build_reference(m, options_, impl_->level_cameras);
       m.T_world_ref = result.T_world_cam;
       m.ref_t_ns = t_ns;
@@ -1121,6 +1172,7 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
     // Report the prediction, and start again from this frame: it becomes the reference.
     result.T_world_cam = T_world_pred;
     result.T_ref_cur = m.T_world_ref.inverse() * T_world_pred;
+    m.rs_ref_rectified = m.rs_frame_rectified;
     TrackerAccess::build_reference(m, options_, impl_->level_cameras);
     m.T_world_ref = T_world_pred;
     m.ref_t_ns = t_ns;
@@ -1130,6 +1182,7 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
   m.dt_prev = dt;
   m.t_prev = t_ns;
   m.T_world_prev = result.T_world_cam;
+  m.rs_prev_rectified = m.rs_frame_rectified;
   return result;
 }
 

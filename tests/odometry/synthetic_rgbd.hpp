@@ -62,16 +62,19 @@ inline std::vector<TexturedRect> make_room(unsigned seed = 1) {
           make_rect(V(0.4, 0.2, 2.2), V::UnitX(), V::UnitY(), 0.35, 0.3, seed + 5)};
 }
 
-/// Renders intensity (CV_32FC1, [0, 1]) and depth (CV_32FC1, m) for camera pose T_world_cam.
-inline odometry::RgbdFrame render(const std::vector<TexturedRect>& scene, const PinholeCamera& cam,
-                                  const SE3& T_world_cam, TimeNs t_ns = 0) {
+/// Renders intensity (CV_32FC1, [0, 1]) and depth (CV_32FC1, m) with each row v seen from the
+/// camera pose T_world_cam_of_row(v) (a rolling shutter; the same pose for all rows: global).
+template <typename PoseOfRow>
+odometry::RgbdFrame render_rows(const std::vector<TexturedRect>& scene, const PinholeCamera& cam,
+                                PoseOfRow&& T_world_cam_of_row, TimeNs t_ns = 0) {
   odometry::RgbdFrame f;
   f.t_ns = t_ns;
   f.image.create(cam.height(), cam.width(), CV_32FC1);
   f.depth_m.create(cam.height(), cam.width(), CV_32FC1);
-  const Eigen::Matrix3d R = T_world_cam.rotation_matrix();
-  const Eigen::Vector3d C = T_world_cam.translation();
   for (int v = 0; v < cam.height(); ++v) {
+    const SE3 T_world_cam = T_world_cam_of_row(v);
+    const Eigen::Matrix3d R = T_world_cam.rotation_matrix();
+    const Eigen::Vector3d C = T_world_cam.translation();
     for (int u = 0; u < cam.width(); ++u) {
       const Eigen::Vector3d d_cam((u - cam.cx()) / cam.fx(), (v - cam.cy()) / cam.fy(), 1.0);
       const Eigen::Vector3d d = R * d_cam;
@@ -95,6 +98,12 @@ inline odometry::RgbdFrame render(const std::vector<TexturedRect>& scene, const 
     }
   }
   return f;
+}
+
+/// Renders intensity (CV_32FC1, [0, 1]) and depth (CV_32FC1, m) for camera pose T_world_cam.
+inline odometry::RgbdFrame render(const std::vector<TexturedRect>& scene, const PinholeCamera& cam,
+                                  const SE3& T_world_cam, TimeNs t_ns = 0) {
+  return render_rows(scene, cam, [&T_world_cam](int) { return T_world_cam; }, t_ns);
 }
 
 /// A small camera for fast tests (320x240, ROS-like intrinsics scaled).

@@ -62,6 +62,14 @@ struct DirectTrackerOptions {
   /// Off by default: on fr1/rpy it made the rotation worse (docs/odometry.md).
   bool compensate_depth_time_offset = false;
 
+  // --- rolling shutter (Ringaby & Forssen, IJCV 2012; Kerl et al., ICCV 2015) ---
+  /// Readout time of a rolling-shutter colour camera (first to last row, s); 0 = global
+  /// shutter. Each frame is rectified to its middle row's time (image/rolling_shutter.hpp)
+  /// with the rotation rate of the constant-velocity prior, depth map alike. RGB-D input only.
+  /// Off by default: on fr1/rpy the gain depends on the value, which we could not measure for
+  /// that Kinect (docs/odometry.md, "Rolling shutter").
+  double rolling_shutter_readout_s = 0.0;
+
   // --- convergence (thesis 3.10) ---
   double update_norm_tolerance = 1e-6;    ///< stop a level when |delta theta| falls below
   double update_change_tolerance = 1e-8;  ///< ... or when it changes by less than this

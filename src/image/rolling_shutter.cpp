@@ -1,0 +1,71 @@
+// Rolling-shutter rectification maps for a rotating camera (see rolling_shutter.hpp).
+#include "kestrel/image/rolling_shutter.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+#include "kestrel/geometry/so3.hpp"
+
+namespace kestrel::image {
+
+RollingShutterRectifier::RollingShutterRectifier(const PinholeCamera& camera, double readout_s)
+    : camera_(camera), readout_s_(readout_s) {
+  if (!std::isfinite(readout_s) || readout_s <= 0.0) {
+    throw std::invalid_argument("RollingShutterRectifier: readout time must be finite and > 0");
+  }
+  set_rotation_rate(Eigen::Vector3d::Zero());
+}
+
+void RollingShutterRectifier::set_rotation_rate(const Eigen::Vector3d& omega_rad_s) {
+  const Eigen::Vector3d w = omega_rad_s.allFinite() ? omega_rad_s : Eigen::Vector3d::Zero();
+  const int W = camera_.width(), H = camera_.height();
+  map_x_.create(H, W, CV_32FC1);
+  map_y_.create(H, W, CV_32FC1);
+  const double v_mid = 0.5 * (H - 1);
+  const double fx = camera_.fx(), fy = camera_.fy(), cx = camera_.cx(), cy = camera_.cy();
+  const RadTanDistortion& d = camera_.distortion();
+  const auto k1 = static_cast<float>(d.k1), k2 = static_cast<float>(d.k2),
+             k3 = static_cast<float>(d.k3), p1 = static_cast<float>(d.p1),
+             p2 = static_cast<float>(d.p2);
+  const auto ffx = static_cast<float>(fx), ffy = static_cast<float>(fy),
+             fcx = static_cast<float>(cx), fcy = static_cast<float>(cy);
+  for (int v = 0; v < H; ++v) {
+    const double s = readout_s_ * (v - v_mid) / H;
+    // The source ray of (u, v) is M (xn(u), yn, 1) with M = exp(w s)^T: linear in xn, so a
+    // row is the ray at u = 0 plus u times a constant step; then the lens distortion (thesis
+    // 2.2, PinholeCamera::distort). Plain float arithmetic: the loop vectorises.
+    const Eigen::Matrix3d M = SO3::exp(w * s).matrix().transpose();
+    const double yn = (v - cy) / fy;
+    const Eigen::Vector3d r0 = M.col(0) * (-cx / fx) + M.col(1) * yn + M.col(2);
+    const Eigen::Vector3d dr = M.col(0) / fx;
+    const auto r0x = static_cast<float>(r0.x()), r0y = static_cast<float>(r0.y()),
+               r0z = static_cast<float>(r0.z());
+    const auto dx = static_cast<float>(dr.x()), dy = static_cast<float>(dr.y()),
+               dz = static_cast<float>(dr.z());
+    float* mx = map_x_.ptr<float>(v);
+    float* my = map_y_.ptr<float>(v);
+    for (int u = 0; u < W; ++u) {
+      const auto fu = static_cast<float>(u);
+      const float iz = 1.0F / (r0z + fu * dz);
+      const float x = (r0x + fu * dx) * iz, y = (r0y + fu * dy) * iz;
+      const float r2 = x * x + y * y;
+      const float radial = 1.0F + r2 * (k1 + r2 * (k2 + r2 * k3));
+      const float xd = x * radial + 2.0F * p1 * x * y + p2 * (r2 + 2.0F * x * x);
+      const float yd = y * radial + p1 * (r2 + 2.0F * y * y) + 2.0F * p2 * x * y;
+      mx[u] = ffx * xd + fcx;
+      my[u] = ffy * yd + fcy;
+    }
+  }
+}
+
+void RollingShutterRectifier::rectify_intensity(const cv::Mat& raw, cv::Mat& out) const {
+  cv::remap(raw, out, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+}
+
+void RollingShutterRectifier::rectify_depth(const cv::Mat& raw, cv::Mat& out) const {
+  cv::remap(raw, out, map_x_, map_y_, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(0));
+}
+
+}  // namespace kestrel::image
