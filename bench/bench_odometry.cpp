@@ -11,6 +11,7 @@
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/pyramid.hpp"
+#include "kestrel/image/rolling_shutter.hpp"
 #include "kestrel/image/undistortion.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
@@ -58,6 +59,27 @@ void BM_UndistortDepth(benchmark::State& s) {
   for (auto _ : s) u.undistort_depth(in, out);
 }
 BENCHMARK(BM_UndistortDepth);
+
+// Rolling shutter (rolling_shutter_readout_s): the maps for one rotation rate (undistortion
+// folded in), and the remaps that replace the two above.
+void BM_RollingShutterMaps(benchmark::State& s) {
+  image::RollingShutterRectifier r(fr1(), 0.02);
+  for (auto _ : s) r.set_rotation_rate(Eigen::Vector3d(0.5, 1.0, 0.3));
+}
+BENCHMARK(BM_RollingShutterMaps);
+
+void BM_RollingShutterRectify(benchmark::State& s) {
+  image::RollingShutterRectifier r(fr1(), 0.02);
+  r.set_rotation_rate(Eigen::Vector3d(0.5, 1.0, 0.3));
+  cv::Mat in(480, 640, CV_32FC1), depth(480, 640, CV_32FC1), out, out_depth;
+  cv::randu(in, 0.0F, 1.0F);
+  cv::randu(depth, 0.5F, 4.0F);
+  for (auto _ : s) {
+    r.rectify_intensity(in, out);
+    r.rectify_depth(depth, out_depth);
+  }
+}
+BENCHMARK(BM_RollingShutterRectify);
 
 void BM_IntensityPyramid(benchmark::State& s) {
   cv::Mat in(480, 640, CV_32FC1);
