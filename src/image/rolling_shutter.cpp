@@ -2,9 +2,8 @@
 #include "kestrel/image/rolling_shutter.hpp"
 
 #include <cmath>
-#include <stdexcept>
-
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "kestrel/geometry/so3.hpp"
 

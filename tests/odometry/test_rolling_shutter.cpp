@@ -3,6 +3,7 @@
 // model and is biased without it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -51,7 +52,8 @@ RunErrors track(double render_readout_s, double model_readout_s) {
     const TrackResult r = tracker.track(frame);
     EXPECT_TRUE(r.ok()) << "frame " << k << ": " << r.failure_detail;
     const SE3 truth = T_world_first.inverse() * pose_at(t);
-    e.max_rotation_deg = std::max(e.max_rotation_deg, test::rotation_error_deg(r.T_world_cam, truth));
+    e.max_rotation_deg =
+        std::max(e.max_rotation_deg, test::rotation_error_deg(r.T_world_cam, truth));
     e.max_translation_m =
         std::max(e.max_translation_m, test::translation_error_m(r.T_world_cam, truth));
   }
@@ -117,10 +119,11 @@ TEST(RollingShutter, ModelRecoversTheMotionThatAGlobalShutterModelBiases) {
   const double readout = 0.03;
   const RunErrors global = track(readout, 0.0);
   const RunErrors modelled = track(readout, readout);
-  std::printf("rolling shutter 30 ms, 10 frames at 69 deg/s: global-shutter model %.3f deg / "
-              "%.2f mm, rolling-shutter model %.3f deg / %.2f mm\n",
-              global.max_rotation_deg, 1e3 * global.max_translation_m, modelled.max_rotation_deg,
-              1e3 * modelled.max_translation_m);
+  std::printf(
+      "rolling shutter 30 ms, 10 frames at 69 deg/s: global-shutter model %.3f deg / "
+      "%.2f mm, rolling-shutter model %.3f deg / %.2f mm\n",
+      global.max_rotation_deg, 1e3 * global.max_translation_m, modelled.max_rotation_deg,
+      1e3 * modelled.max_translation_m);
   EXPECT_LT(modelled.max_rotation_deg, 0.25 * global.max_rotation_deg);
   EXPECT_LT(modelled.max_translation_m, 0.6 * global.max_translation_m);
 }
@@ -132,6 +135,20 @@ TEST(RollingShutter, WithoutRollingShutterTheSequenceIsTrackedExactly) {
   EXPECT_LT(a.max_translation_m, 1e-3);
 }
 
+TEST(RollingShutter, StereoInputRefusesTheOption) {
+  // Disparity input comes from rectified global-shutter views: the option is an error there.
+  DirectTrackerOptions o;
+  o.rolling_shutter_readout_s = 0.02;
+  const RectifiedStereo rig{400.0, 159.5, 119.5, 0.1, 320, 240};
+  try {
+    DirectTracker tracker(rig, o);
+    FAIL() << "accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("rolling_shutter_readout_s"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(RollingShutter, InvalidReadoutIsRejectedByName) {
   DirectTrackerOptions o;
   o.rolling_shutter_readout_s = -0.01;
@@ -139,7 +156,8 @@ TEST(RollingShutter, InvalidReadoutIsRejectedByName) {
     o.validate();
     FAIL() << "negative readout accepted";
   } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("rolling_shutter_readout_s"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("rolling_shutter_readout_s"), std::string::npos)
+        << e.what();
   }
 }
 
