@@ -49,7 +49,7 @@ printf 'rolling_shutter_readout_s: 0.02\n' > "$tmp/rs.yaml"
 taskset -c "$core" "$kestrel" odometry "$data" --out "$tmp/kestrel_rs.txt" --config "$tmp/rs.yaml" \
   > "$tmp/krs.out" 2> "$tmp/krs.err"
 summary=$(tail -n 1 "$tmp/krs.err")
-rows+=("kestrel, rolling_shutter_readout_s 0.02|$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$summary")|$(sed -E 's/.*failures=([0-9]+).*/\1/' <<< "$summary")|$(evaluate "$tmp/kestrel_rs.txt")")
+rows+=("kestrel + rolling shutter 20 ms (opt.)|$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$summary")|$(sed -E 's/.*failures=([0-9]+).*/\1/' <<< "$summary")|$(evaluate "$tmp/kestrel_rs.txt")")
 
 for m in rgbd icp; do
   out=$(taskset -c "$core" "$peer" "$m" "$data" "$tmp/$m.txt")
