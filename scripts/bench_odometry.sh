@@ -38,18 +38,21 @@ evaluate() {
 }
 
 rows=()
-# kestrel: the SUMMARY line is the last line on stderr.
-taskset -c "$core" "$kestrel" odometry "$data" --out "$tmp/kestrel.txt" > "$tmp/k.out" 2> "$tmp/k.err"
-summary=$(tail -n 1 "$tmp/k.err")
-k_ms=$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$summary")
-k_fail=$(sed -E 's/.*failures=([0-9]+).*/\1/' <<< "$summary")
-rows+=("kestrel odometry (defaults)|$k_ms|$k_fail|$(evaluate "$tmp/kestrel.txt")")
+# kestrel_row NAME TAG [kestrel odometry flags...]: one table row (the SUMMARY line is the last
+# line on stderr).
+kestrel_row() {
+  local name=$1 tag=$2 summary
+  shift 2
+  taskset -c "$core" "$kestrel" odometry "$data" --out "$tmp/$tag.txt" "$@" > "$tmp/$tag.out" \
+    2> "$tmp/$tag.err"
+  summary=$(tail -n 1 "$tmp/$tag.err")
+  rows+=("$name|$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$summary")|$(sed -E \
+    's/.*failures=([0-9]+).*/\1/' <<< "$summary")|$(evaluate "$tmp/$tag.txt")")
+}
+kestrel_row "kestrel odometry (defaults)" kestrel
 # The rolling-shutter option at a 20 ms readout (not a default: docs/odometry.md).
 printf 'rolling_shutter_readout_s: 0.02\n' > "$tmp/rs.yaml"
-taskset -c "$core" "$kestrel" odometry "$data" --out "$tmp/kestrel_rs.txt" --config "$tmp/rs.yaml" \
-  > "$tmp/krs.out" 2> "$tmp/krs.err"
-summary=$(tail -n 1 "$tmp/krs.err")
-rows+=("kestrel + rolling shutter 20 ms (opt.)|$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$summary")|$(sed -E 's/.*failures=([0-9]+).*/\1/' <<< "$summary")|$(evaluate "$tmp/kestrel_rs.txt")")
+kestrel_row "kestrel + rolling shutter 20 ms (opt.)" kestrel_rs --config "$tmp/rs.yaml"
 
 for m in rgbd icp; do
   out=$(taskset -c "$core" "$peer" "$m" "$data" "$tmp/$m.txt")

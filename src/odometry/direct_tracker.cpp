@@ -105,9 +105,9 @@ struct DirectTracker::Impl {
   TimeNs dt_prev = 0;
 
   // Rolling shutter (options.rolling_shutter_readout_s > 0; it undistorts as well): the current
-  // frame's raw depth (its raw intensity is intensity_raw), and whether the current, previous
-  // and reference frames were rectified with a known rotation rate (a frame before any motion
-  // estimate is not).
+  // frame's raw depth, the caller's map itself (not a copy; held only during track(): its raw
+  // intensity is intensity_raw), and whether the current, previous and reference frames were
+  // rectified with a known rotation rate (a frame before any motion estimate is not).
   std::optional<image::RollingShutterRectifier> rolling_shutter;
   cv::Mat depth_raw;
   bool rs_frame_rectified = false, rs_prev_rectified = false, rs_ref_rectified = false;
@@ -188,6 +188,7 @@ void DirectTracker::reset() {
   impl_->has_velocity = false;
   impl_->depth_time_shift = false;
   impl_->T_rgb_depth = SE3();
+  impl_->depth_raw.release();
 }
 
 namespace {
@@ -613,9 +614,9 @@ void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrack
   image::to_intensity(f.image, m.intensity_raw);
   if (m.rolling_shutter) {
     // Rolling shutter: rectified with the rotation rate the constant-velocity prior predicts
-    // (the last frame's motion); the raw depth is kept for a later rectification with the
+    // (the last frame's motion); the raw depth stays at hand for a later rectification with the
     // frame's own rate (track_prepared).
-    f.depth_m.copyTo(m.depth_raw);
+    m.depth_raw = f.depth_m;
     m.rs_frame_rectified = m.has_velocity && m.dt_prev > 0;
     m.rectify_rolling_shutter(m.rs_frame_rectified
                                   ? Eigen::Vector3d(m.velocity.so3().log() / ns_to_s(m.dt_prev))
@@ -1029,7 +1030,9 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
   if (bad.empty()) bad = check_frame(frame, camera_);
   if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
   prepare_frame(m, frame, options_);
-  return track_prepared(frame.t_ns, frame.depth_t_ns);
+  TrackResult result = track_prepared(frame.t_ns, frame.depth_t_ns);
+  m.depth_raw.release();  // the caller's buffer: not held past the call
+  return result;
 }
 
 TrackResult DirectTracker::track(const DisparityFrame& frame) {
@@ -1055,7 +1058,7 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
         : SE3();
   };
   set_depth_time_shift(m.has_prev && m.has_velocity, m.velocity, m.dt_prev);
-  const bool rolling_shutter = options_.rolling_shutter_readout_s > 0.0 && !disparity_input_;
+  const bool rolling_shutter = m.rolling_shutter.has_value();
 
   if (!m.has_ref || !m.has_prev) {
     // The first frame defines the world.

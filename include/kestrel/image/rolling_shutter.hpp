@@ -34,8 +34,6 @@ class RollingShutterRectifier {
   /// invent surfaces between foreground and background.
   void rectify_depth(const cv::Mat& raw, cv::Mat& out) const;
 
-  [[nodiscard]] double readout_s() const { return readout_s_; }
-
  private:
   PinholeCamera camera_;
   double readout_s_ = 0.0;
