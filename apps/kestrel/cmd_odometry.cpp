@@ -7,12 +7,15 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <numbers>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/eval/csv_writer.hpp"
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
@@ -34,6 +37,7 @@ struct OdometryArgs {
   std::filesystem::path dataset;
   std::filesystem::path out;
   std::filesystem::path config;
+  std::filesystem::path frames;  // --frames: per-frame health CSV
   std::string camera;
   bool force = false;
   bool quiet = false;
@@ -51,6 +55,46 @@ void print_options(const odometry::DirectTrackerOptions& options, const Odometry
   std::istringstream lines(options.to_yaml());
   for (std::string line; std::getline(lines, line);) std::cerr << "  " << line << "\n";
 }
+
+// --frames: one row per frame with the tracker's health and the reported covariance, for
+// finding the frames a trajectory error comes from (docs/odometry.md, "Per-frame log").
+class FrameLog {
+ public:
+  FrameLog(const std::filesystem::path& path, bool force) {
+    if (path.empty()) return;
+    // clang-format off
+    csv_.emplace(path, std::vector<std::string>{
+        "frame", "t_ns", "ref_t_ns", "ok", "failure", "converged", "iterations", "sigma",
+        "photometric_level", "inlier_ratio", "overlap", "points", "gain", "bias", "new_keyframe",
+        "geometric_fallback", "retried_previous", "track_ms",
+        "sd_tx_m", "sd_ty_m", "sd_tz_m", "sd_rx_deg", "sd_ry_deg", "sd_rz_deg"}, kCommand, force);
+    // clang-format on
+  }
+
+  void add(std::size_t frame, const odometry::TrackResult& r, double track_ms) {
+    if (!csv_) return;
+    auto& c = *csv_;
+    const auto flag = [](bool b) { return std::int64_t{b ? 1 : 0}; };
+    c.add(static_cast<std::int64_t>(frame)).add(std::int64_t{r.t_ns}).add(std::int64_t{r.ref_t_ns});
+    c.add(flag(r.ok())).add(r.ok() ? std::string_view("") : odometry::to_string(r.failure));
+    c.add(flag(r.converged)).add(std::int64_t{r.iterations}).add(r.sigma);
+    c.add(std::int64_t{r.photometric_level}).add(r.inlier_ratio).add(r.overlap);
+    c.add(std::int64_t{r.points}).add(r.gain).add(r.bias);
+    c.add(flag(r.new_keyframe)).add(flag(r.geometric_fallback)).add(flag(r.retried_previous));
+    c.add(track_ms);
+    const Eigen::Matrix<double, 6, 1> sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    for (int k = 0; k < 3; ++k) c.add(sd(k));
+    for (int k = 3; k < 6; ++k) c.add(sd(k) * 180.0 / std::numbers::pi);
+    c.end_row();
+  }
+
+  void close() {
+    if (csv_) csv_->close();
+  }
+
+ private:
+  std::optional<eval::CsvWriter> csv_;
+};
 
 // Mean and median of the per-frame times, as the last stderr line (its format is stable).
 void print_summary(const std::vector<double>& ms, std::size_t frames, std::size_t failures) {
@@ -163,6 +207,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
   std::size_t failures = 0, keyframes = 0;
   double fill_sum = 0.0;
   std::vector<std::string> failure_lines;
+  FrameLog frame_log(args.frames, args.force);
   ProgressBar progress("odometry --stereo", sequence.stereo_size());
   for (std::size_t i = 0; i < sequence.stereo_size(); ++i) {
     const io::StereoImages images = sequence.load_stereo(i);  // decoding: not timed
@@ -174,7 +219,9 @@ void run_stereo_odometry(const OdometryArgs& args) {
                        std::to_string(images.t_ns) + ", mav0/cam0 and mav0/cam1): " +
                        r.track.failure_detail);
     }
-    if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    const double track_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    if (i > 0) ms.push_back(track_ms);
+    frame_log.add(i, r.track, track_ms);
     fill_sum += r.match.fill_rate();
     if (!r.track.ok()) {
       ++failures;
@@ -185,6 +232,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
     progress.update(i + 1);
   }
   progress.finish();
+  frame_log.close();
   io::write_tum_trajectory(args.out, trajectory, kCommand, args.force);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses of the "
             << "rectified left camera, " << keyframes << " keyframes, " << failures
@@ -207,6 +255,10 @@ std::string default_camera_for(const std::filesystem::path& folder) {
 }
 
 void run_odometry(const OdometryArgs& args) {
+  if (!args.frames.empty() && std::filesystem::weakly_canonical(args.frames) ==
+                                  std::filesystem::weakly_canonical(args.out)) {
+    throw InputError("--frames " + args.frames.string() + ": the same file as --out");
+  }
   if (args.stereo) {
     run_stereo_odometry(args);
     return;
@@ -244,6 +296,7 @@ void run_odometry(const OdometryArgs& args) {
   ms.reserve(sequence.size());
   std::size_t failures = 0, keyframes = 0, fallbacks = 0;
   std::vector<std::string> failure_lines;
+  FrameLog frame_log(args.frames, args.force);
   ProgressBar progress("odometry", sequence.size());
   for (std::size_t i = 0; i < sequence.size(); ++i) {
     const io::RgbdImages images = sequence.load(i);  // decoding: not timed
@@ -251,7 +304,9 @@ void run_odometry(const OdometryArgs& args) {
     const auto t0 = std::chrono::steady_clock::now();
     const odometry::TrackResult r = tracker.track(frame);
     const auto t1 = std::chrono::steady_clock::now();
-    if (i > 0) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    const double track_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    if (i > 0) ms.push_back(track_ms);
+    frame_log.add(i, r, track_ms);
     if (!r.ok()) {
       ++failures;
       if (failure_lines.size() < 20) failure_lines.push_back(failure_line(i, r));
@@ -262,6 +317,7 @@ void run_odometry(const OdometryArgs& args) {
     progress.update(i + 1);
   }
   progress.finish();
+  frame_log.close();
   io::write_tum_trajectory(args.out, trajectory, kCommand, args.force);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses, "
             << keyframes << " keyframes, " << failures << " failures, " << fallbacks
@@ -289,6 +345,10 @@ void add_odometry_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "output trajectory (TUM format)")->required();
   cmd->add_option("--config", args->config, "tracker options YAML (top level or under 'tracker:')")
       ->check(CLI::ExistingFile);
+  cmd->add_option("--frames", args->frames,
+                  "per-frame log (CSV): health (converged, iterations, sigma, inlier ratio, "
+                  "keyframe, fallback, failure), tracking ms and the reported 1-sigma of the "
+                  "motion to the reference frame");
   cmd->add_option("--camera", args->camera,
                   "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN)");
   cmd->add_flag("--stereo", args->stereo,

@@ -37,6 +37,18 @@ CsvWriter& CsvWriter::add(std::int64_t value) {
   return *this;
 }
 
+CsvWriter& CsvWriter::add(std::string_view text) {
+  separate();
+  if (text.find_first_of(",\"\r\n") == std::string_view::npos) {
+    out_ << text;
+    return *this;
+  }
+  out_ << '"';
+  for (const char c : text) out_ << (c == '"' ? "\"\"" : std::string_view(&c, 1));
+  out_ << '"';
+  return *this;
+}
+
 void CsvWriter::end_row() {
   if (in_row_ != columns_) {
     throw std::logic_error("CsvWriter: row of " + std::to_string(in_row_) + " values for " +

@@ -20,6 +20,9 @@ class CsvWriter {
 
   CsvWriter& add(double value);
   CsvWriter& add(std::int64_t value);
+  /// A text cell; quoted (RFC 4180, inner quotes doubled) when it holds a comma, quote or
+  /// line break.
+  CsvWriter& add(std::string_view text);
   /// Ends the row; throws std::logic_error if it does not have one value per column.
   void end_row();
   /// Flushes; throws InputError if anything failed to write.
