@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "kestrel/fusion/odometry_measurement.hpp"
+
 namespace kestrel::flight {
 namespace {
 
@@ -123,7 +125,6 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   // constant-velocity guess meaningless, so the tracker restarts from this frame.
   if (last_frame_ns_ && ns_to_s(t_ns - *last_frame_ns_) > options_.max_frame_gap_s) {
     tracker_.reset();
-    last_tracked_ns_.reset();
   }
   last_frame_ns_ = t_ns;
 
@@ -134,23 +135,9 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   frame.depth_m = depth_m_;
   out.track = tracker_.track(frame);
   out.track_ms = ms_since(start);
-  if (!out.track.ok()) return out;
-
-  fusion::RelativePoseMeasurement m;
-  m.t_ns = t_ns;
-  if (last_tracked_ns_) {
-    // Motion since the last tracked frame, where the fusion's clone is; its uncertainty is
-    // that of the alignment to the keyframe (the keyframe's own pose error is common to both).
-    m.t_ref_ns = *last_tracked_ns_;
-    m.T_ref_cur = last_tracked_T_world_cam_.inverse() * out.track.T_world_cam;
-    m.covariance = options_.covariance_scale * out.track.covariance;
-  } else {
-    m.t_ref_ns = t_ns;  // no reference: the fusion only clones here
-    m.covariance = Matrix6d::Identity();
-  }
-  out.measurement = m;
-  last_tracked_ns_ = t_ns;
-  last_tracked_T_world_cam_ = out.track.T_world_cam;
+  // Keyframe-relative (fusion/odometry_measurement.hpp): the motion from the keyframe with the
+  // covariance the alignment reports for it; a failed frame only moves the filter's clone.
+  out.measurement = fusion::keyframe_measurement(out.track, options_.covariance_scale);
   return out;
 }
 

@@ -204,6 +204,7 @@ void FusionEngine::initialize(const NominalState& state) {
   initialized_ = true;
   processed_ns_ = std::max(processed_ns_, state.t_ns);
   last_accepted_update_ns_ = state.t_ns;
+  anchor_.reset();
 }
 
 void FusionEngine::add_imu(const io::ImuSample& sample) {
@@ -337,19 +338,39 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
     return;
   }
   propagate_to(m.t_ns);
-  // The measurement must start at the cloned frame (0.5 ms tolerance); otherwise it only
-  // starts a new reference (first frame, or a frame whose predecessor was never seen).
+  // The measurement must start at the cloned frame (0.5 ms tolerance), or at a keyframe that
+  // an earlier measurement tied to the clone (anchor_); otherwise it only starts a new
+  // reference (first frame, or a frame whose predecessor was never seen).
   constexpr TimeNs kTolerance = 500'000;
-  const bool has_reference = std::llabs(m.t_ref_ns - ekf_.state().clone_t_ns) <= kTolerance;
+  const TimeNs clone_t = ekf_.state().clone_t_ns;
+  bool has_reference = std::llabs(m.t_ref_ns - clone_t) <= kTolerance;
+  RelativePoseMeasurement rebased = m;
+  if (!has_reference && anchor_ && anchor_->keyframe_t_ns == m.t_ref_ns &&
+      std::llabs(anchor_->clone_t_ns - clone_t) <= kTolerance) {
+    // T_clone_cur = T_kf_clone^-1 T_kf_cur. Left perturbations in the keyframe frame, exp(e_c)
+    // T_kf_cur and exp(e_a) T_kf_clone, give exp(Ad(T_kf_clone^-1) (e_c - e_a)) T_clone_cur; the
+    // two errors are taken as independent (both are alignments to the keyframe: a bound).
+    const SE3 T_clone_kf = anchor_->T_keyframe_clone.inverse();
+    const Matrix6d Ad = T_clone_kf.adjoint();
+    rebased.t_ref_ns = clone_t;
+    rebased.T_ref_cur = T_clone_kf * m.T_ref_cur;
+    rebased.covariance = Ad * (m.covariance + anchor_->covariance) * Ad.transpose();
+    has_reference = true;
+  }
   if (!has_reference) {
     ++counters_.updates_no_reference;
+    if (m.t_ref_ns != m.t_ns) {
+      anchor_ = KeyframeAnchor{m.t_ref_ns, m.t_ns, m.T_ref_cur, m.covariance};
+    } else {
+      anchor_.reset();
+    }
   } else {
     // Odometry camera motion -> body motion: T_b1_b2 = T_BC T_c1_c2 T_BC^-1; a left
     // perturbation moves with the adjoint of T_BC.
     const SE3& T_bc = options_.T_body_cam;
-    const SE3 T_body = T_bc * m.T_ref_cur * T_bc.inverse();
+    const SE3 T_body = T_bc * rebased.T_ref_cur * T_bc.inverse();
     const Matrix6d Ad = T_bc.adjoint();
-    const Matrix6d cov = Ad * m.covariance * Ad.transpose();
+    const Matrix6d cov = Ad * rebased.covariance * Ad.transpose();
     const UpdateResult r = ekf_.update(T_body, cov, gate_chi2_);
     last_update_ = r;
     switch (r.outcome) {
@@ -372,6 +393,7 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
   // reference; a keyframe that is kept keeps its clone. Without a reference the frame is
   // cloned anyway: a measurement starting there is the only one that can follow.
   if (m.starts_new_reference || !has_reference) ekf_.clone();
+  if (m.starts_new_reference && has_reference) anchor_.reset();  // the clone is the keyframe now
   emit(true, out);
 }
 

@@ -12,6 +12,7 @@
 #include "camera_source.hpp"
 #include "controller_stage.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "kestrel/pipeline/bounded_queue.hpp"
@@ -37,7 +38,10 @@ struct DisparityItem {
 struct TrackItem {
   TimeNs t_ns = 0;
   Clock::time_point arrived;
-  std::optional<fusion::RelativePoseMeasurement> measurement;  // none: tracking failed
+  // The motion from the keyframe (fusion::keyframe_measurement; a failed frame's only moves
+  // the filter's clone there) and the tracker's pose, none when tracking failed.
+  fusion::RelativePoseMeasurement measurement;
+  std::optional<SE3> T_world_cam;
 };
 using FusionInput = std::variant<io::ImuSample, TrackItem>;
 struct StateItem {
@@ -211,26 +215,15 @@ void depth_stage(Context& c, StageStats& st) {
 }
 
 void tracker_stage(Context& c, StageStats& st) {
-  std::optional<std::pair<TimeNs, SE3>> last;  // the last tracked frame: the fusion's clone
   while (auto item = c.disparity_q.pop()) {
     ++st.in;
     const auto start = Clock::now();
     const odometry::TrackResult r =
         c.tracker.track(odometry::DisparityFrame{item->t_ns, item->left_rect, item->disparity});
-    TrackItem out{item->t_ns, item->arrived, std::nullopt};
+    TrackItem out{item->t_ns, item->arrived,
+                  fusion::keyframe_measurement(r, c.options.vo_covariance_scale), std::nullopt};
     if (r.ok()) {
-      fusion::RelativePoseMeasurement m;
-      m.t_ns = item->t_ns;
-      if (last) {
-        m.t_ref_ns = last->first;
-        m.T_ref_cur = last->second.inverse() * r.T_world_cam;
-        m.covariance = c.options.vo_covariance_scale * r.covariance;
-      } else {
-        m.t_ref_ns = item->t_ns;  // no reference yet: the fusion only clones here
-        m.covariance = Matrix6d::Identity();
-      }
-      out.measurement = m;
-      last = std::make_pair(item->t_ns, r.T_world_cam);
+      out.T_world_cam = r.T_world_cam;
     } else {
       ++st.failed;
     }
@@ -265,7 +258,7 @@ void fusion_stage(Context& c, StageStats& st) {
       engine.add_imu(held.front());
       held.pop_front();
     }
-    if (item.measurement) engine.add_relative_pose(*item.measurement);
+    engine.add_relative_pose(item.measurement);
     const auto states = engine.poll(/*imu_rate=*/false);
     st.add_processing(start, Clock::now());
     last_arrived = item.arrived;
@@ -278,30 +271,20 @@ void fusion_stage(Context& c, StageStats& st) {
 }
 
 // No IMU (camera source): the fusion passes the odometry through. Its states are the tracker's
-// poses of the rectified left camera, chained from the relative motions it hands on
-// (T_world_cur = T_world_ref * T_ref_cur; world = that camera at the first tracked pair), with
+// poses of the rectified left camera (world = that camera at the tracker's first frame), with
 // no covariance (sigma NaN). Failed tracks are counted and give no state.
 void passthrough_fusion_stage(Context& c, StageStats& st) {
-  std::optional<std::pair<TimeNs, SE3>> last;  // the last tracked pair and its pose
   while (auto input = c.fusion_q.pop()) {
     const auto* item = std::get_if<TrackItem>(&*input);
     if (item == nullptr) continue;  // a camera source sends no IMU samples
     ++st.in;
     const auto start = Clock::now();
-    std::optional<SE3> T_world_cam;
-    if (item->measurement) {
-      const fusion::RelativePoseMeasurement& m = *item->measurement;
-      if (!last)
-        T_world_cam = SE3();  // the first tracked pair defines the world
-      else if (m.t_ref_ns == last->first)
-        T_world_cam = last->second * m.T_ref_cur;
-    }
+    const std::optional<SE3>& T_world_cam = item->T_world_cam;
     st.add_processing(start, Clock::now());
     if (!T_world_cam) {
       ++st.failed;
       continue;
     }
-    last = std::make_pair(item->t_ns, *T_world_cam);
     fusion::FusedState s;
     s.t_ns = item->t_ns;
     s.state.t_ns = item->t_ns;

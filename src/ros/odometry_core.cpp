@@ -12,6 +12,7 @@
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
@@ -127,7 +128,6 @@ struct OdometryCore::Impl {
   std::optional<fusion::FusionOptions> fusion_options;
   std::unique_ptr<fusion::FusionEngine> engine;
   std::deque<io::ImuSample> held_imu;
-  std::optional<std::pair<TimeNs, SE3>> last_tracked;  // the fusion's reference
   std::size_t imu_rejected = 0, fused_states = 0;
 
   std::size_t frames = 0, failures = 0, invalid = 0, keyframes = 0;
@@ -255,7 +255,6 @@ void OdometryCore::reset() {
   }
   m.keyframe.reset();
   m.previous.reset();
-  m.last_tracked.reset();
   m.held_imu.clear();
   if (m.fusion_options) m.engine = std::make_unique<fusion::FusionEngine>(*m.fusion_options);
 }
@@ -389,21 +388,9 @@ std::vector<FusedOutput> OdometryCore::Impl::fuse(const odometry::TrackResult& r
   std::vector<FusedOutput> out;
   if (!engine) return out;
   release_imu_until(r.t_ns);
-  if (r.ok()) {
-    // As `kestrel run`'s tracker stage: the motion since the last tracked frame.
-    fusion::RelativePoseMeasurement m;
-    m.t_ns = r.t_ns;
-    if (last_tracked) {
-      m.t_ref_ns = last_tracked->first;
-      m.T_ref_cur = last_tracked->second.inverse() * r.T_world_cam;
-      m.covariance = options.vo_covariance_scale * r.covariance;
-    } else {
-      m.t_ref_ns = r.t_ns;  // no reference yet: the fusion only clones here
-      m.covariance = Matrix6d::Identity();
-    }
-    engine->add_relative_pose(m);
-    last_tracked = std::make_pair(r.t_ns, r.T_world_cam);
-  }
+  // As `kestrel run`'s tracker stage: the motion from the keyframe; a failed frame only moves
+  // the filter's clone (the tracker restarts from it).
+  engine->add_relative_pose(fusion::keyframe_measurement(r, options.vo_covariance_scale));
   for (const fusion::FusedState& s : engine->poll(/*imu_rate=*/false)) {
     FusedOutput f;
     f.t_ns = s.t_ns;

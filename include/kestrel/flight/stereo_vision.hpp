@@ -63,8 +63,8 @@ struct StereoVisionOptions {
 struct VisionFrame {
   TimeNs t_ns = 0;
   odometry::TrackResult track;
-  /// The relative motion for the fusion (also for the first frame after a restart: then with
-  /// no matching reference, it only starts one); nullopt when tracking failed.
+  /// The motion from the keyframe for the fusion (fusion::keyframe_measurement); a failed
+  /// frame, and the first after a restart, give one that only moves the filter's clone there.
   std::optional<fusion::RelativePoseMeasurement> measurement;
   double depth_fill = 0.0;  ///< share of pixels with a disparity
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;
@@ -101,8 +101,6 @@ class StereoVision {
   sim::StereoFrame frame_;
   cv::Mat left_gray_, right_gray_, tracking_gray_, disparity_, depth_m_;
   std::optional<TimeNs> last_frame_ns_;
-  std::optional<TimeNs> last_tracked_ns_;
-  SE3 last_tracked_T_world_cam_;
 };
 
 }  // namespace kestrel::flight

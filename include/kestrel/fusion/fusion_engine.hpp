@@ -154,6 +154,16 @@ class FusionEngine {
   std::uint32_t sticky_flags_ = kFlagNone;
   std::optional<UpdateResult> last_update_;
   FusionCounters counters_;
+  // A keyframe the filter never cloned (it came before the filter started, or before a gap):
+  // the first measurement from it was cloned as `clone_t_ns` and its motion from the keyframe
+  // kept, so that the next measurements from the same keyframe are re-based on that clone.
+  struct KeyframeAnchor {
+    TimeNs keyframe_t_ns = 0;
+    TimeNs clone_t_ns = 0;
+    SE3 T_keyframe_clone;
+    Matrix6d covariance = Matrix6d::Zero();
+  };
+  std::optional<KeyframeAnchor> anchor_;
 };
 
 /// Static initialisation from still IMU samples: roll and pitch from the mean specific force
