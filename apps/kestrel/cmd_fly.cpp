@@ -8,6 +8,7 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/flight/flight_report.hpp"
 #include "kestrel/flight/flight_simulation.hpp"
+#include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/sim/scenes.hpp"
 #include "progress.hpp"
@@ -26,6 +27,7 @@ struct FlyArgs {
   double vo_off_for_s = 2.0;
   double latency_s = -1.0;
   std::string projector;
+  std::string vo_reference;
   std::string vehicle_yaml, controller_yaml, imu_yaml, safety_yaml, tracker_yaml, matcher_yaml;
 };
 
@@ -53,6 +55,13 @@ void run_fly(const FlyArgs& a) {
     options.vision.matcher = sensor::BlockMatcherOptions::load_yaml(a.matcher_yaml);
   }
   if (!a.projector.empty()) options.vision.projector_mode = sensor::parse_projector_mode(a.projector);
+  if (!a.vo_reference.empty()) {
+    try {
+      options.vision.measurement_reference = fusion::parse_odometry_reference(a.vo_reference);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("fly: --vo-reference: ") + e.what());
+    }
+  }
   if (a.latency_s >= 0.0) options.vision_latency_s = a.latency_s;
   if (a.vo_off_at_s >= 0.0) {
     if (!(a.vo_off_for_s > 0.0)) throw InputError("fly: --vo-off-for must be positive");
@@ -118,6 +127,9 @@ void add_fly_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--latency", args->latency_s,
                   "Camera-to-filter latency in seconds (default 0.040)");
+  cmd->add_option("--vo-reference", args->vo_reference,
+                  "What each odometry measurement to the EKF is relative to: keyframe (default) "
+                  "or previous_frame (docs/flight.md compares them)");
   cmd->add_option("--projector", args->projector,
                   "Projector mode: ambient (default: room light + pattern), dark, off (passive)");
   cmd->add_option("--vehicle", args->vehicle_yaml, "Vehicle parameters YAML (config/vehicle_default.yaml)");

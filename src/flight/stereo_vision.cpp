@@ -7,8 +7,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "kestrel/fusion/odometry_measurement.hpp"
-
 namespace kestrel::flight {
 namespace {
 
@@ -64,7 +62,8 @@ std::string StereoVisionOptions::describe() const {
      << " m, projector " << sensor::projector_mode_name(projector_mode) << ", noise "
      << intensity_sigma << " grey levels, block " << matcher.block_size << ", disparities "
      << matcher.min_disparity << ".." << matcher.max_disparity << ", covariance x"
-     << covariance_scale;
+     << covariance_scale << ", measurements from the "
+     << fusion::odometry_reference_name(measurement_reference);
   return os.str();
 }
 
@@ -77,7 +76,8 @@ StereoVision::StereoVision(const sim::Scene& scene, const StereoVisionOptions& o
       lit_scene_(sensor::scene_with_projector(scene, projector_, options.projector_mode)),
       renderer_(rig_, render_options(options), seed),
       matcher_(options.matcher, rig_),
-      tracker_(rig_.left(), options.tracker) {
+      tracker_(rig_.left(), options.tracker),
+      measurements_(options.measurement_reference, options.covariance_scale) {
   if (options_.track_without_pattern &&
       options_.projector_mode == sensor::ProjectorMode::kAmbientAndPattern) {
     scene_ = scene;
@@ -125,6 +125,7 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   // constant-velocity guess meaningless, so the tracker restarts from this frame.
   if (last_frame_ns_ && ns_to_s(t_ns - *last_frame_ns_) > options_.max_frame_gap_s) {
     tracker_.reset();
+    measurements_.reset();
   }
   last_frame_ns_ = t_ns;
 
@@ -135,9 +136,7 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   frame.depth_m = depth_m_;
   out.track = tracker_.track(frame);
   out.track_ms = ms_since(start);
-  // Keyframe-relative (fusion/odometry_measurement.hpp): the motion from the keyframe with the
-  // covariance the alignment reports for it; a failed frame only moves the filter's clone.
-  out.measurement = fusion::keyframe_measurement(out.track, options_.covariance_scale);
+  out.measurement = measurements_.next(out.track);
   return out;
 }
 

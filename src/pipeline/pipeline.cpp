@@ -38,9 +38,9 @@ struct DisparityItem {
 struct TrackItem {
   TimeNs t_ns = 0;
   Clock::time_point arrived;
-  // The motion from the keyframe (fusion::keyframe_measurement; a failed frame's only moves
-  // the filter's clone there) and the tracker's pose, none when tracking failed.
-  fusion::RelativePoseMeasurement measurement;
+  // The relative motion for the fusion (fusion::OdometryMeasurements::next()) and the
+  // tracker's pose; none when tracking failed.
+  std::optional<fusion::RelativePoseMeasurement> measurement;
   std::optional<SE3> T_world_cam;
 };
 using FusionInput = std::variant<io::ImuSample, TrackItem>;
@@ -215,13 +215,13 @@ void depth_stage(Context& c, StageStats& st) {
 }
 
 void tracker_stage(Context& c, StageStats& st) {
+  fusion::OdometryMeasurements measurements(c.options.vo_reference, c.options.vo_covariance_scale);
   while (auto item = c.disparity_q.pop()) {
     ++st.in;
     const auto start = Clock::now();
     const odometry::TrackResult r =
         c.tracker.track(odometry::DisparityFrame{item->t_ns, item->left_rect, item->disparity});
-    TrackItem out{item->t_ns, item->arrived,
-                  fusion::keyframe_measurement(r, c.options.vo_covariance_scale), std::nullopt};
+    TrackItem out{item->t_ns, item->arrived, measurements.next(r), std::nullopt};
     if (r.ok()) {
       out.T_world_cam = r.T_world_cam;
     } else {
@@ -258,7 +258,7 @@ void fusion_stage(Context& c, StageStats& st) {
       engine.add_imu(held.front());
       held.pop_front();
     }
-    engine.add_relative_pose(item.measurement);
+    if (item.measurement) engine.add_relative_pose(*item.measurement);
     const auto states = engine.poll(/*imu_rate=*/false);
     st.add_processing(start, Clock::now());
     last_arrived = item.arrived;

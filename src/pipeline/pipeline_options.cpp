@@ -74,6 +74,12 @@ PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
       } else if (key == "vo_covariance_scale") {
         o.vo_covariance_scale = v.as<double>();
         if (!(o.vo_covariance_scale > 0.0)) throw InputError(path, key, "must be positive");
+      } else if (key == "vo_reference") {
+        try {
+          o.vo_reference = fusion::parse_odometry_reference(v.as<std::string>());
+        } catch (const std::invalid_argument& e) {
+          throw InputError(path, key, e.what());
+        }
       } else if (key == "output") {
         o.output = v.as<std::string>();
       } else if (key == "matcher_options") {
@@ -140,6 +146,7 @@ std::string PipelineOptions::describe() const {
   s << " drop_stale=" << (drops() ? "true" : "false") << " queues frame=" << frame_queue_capacity
     << " fusion=" << fusion_queue_capacity << " state=" << state_queue_capacity
     << " max_frames=" << max_frames << " vo_covariance_scale=" << vo_covariance_scale
+    << " vo_reference=" << fusion::odometry_reference_name(vo_reference)
     << " output=" << output.string() << "\n  controller: " << controller.describe();
   return s.str();
 }

@@ -127,6 +127,7 @@ struct OdometryCore::Impl {
   // Fusion.
   std::optional<fusion::FusionOptions> fusion_options;
   std::unique_ptr<fusion::FusionEngine> engine;
+  std::optional<fusion::OdometryMeasurements> measurements;
   std::deque<io::ImuSample> held_imu;
   std::size_t imu_rejected = 0, fused_states = 0;
 
@@ -256,6 +257,7 @@ void OdometryCore::reset() {
   m.keyframe.reset();
   m.previous.reset();
   m.held_imu.clear();
+  m.measurements.reset();
   if (m.fusion_options) m.engine = std::make_unique<fusion::FusionEngine>(*m.fusion_options);
 }
 
@@ -388,9 +390,13 @@ std::vector<FusedOutput> OdometryCore::Impl::fuse(const odometry::TrackResult& r
   std::vector<FusedOutput> out;
   if (!engine) return out;
   release_imu_until(r.t_ns);
-  // As `kestrel run`'s tracker stage: the motion from the keyframe; a failed frame only moves
-  // the filter's clone (the tracker restarts from it).
-  engine->add_relative_pose(fusion::keyframe_measurement(r, options.vo_covariance_scale));
+  // As `kestrel run`'s tracker stage.
+  if (!measurements) {
+    measurements.emplace(options.vo_from_keyframe ? fusion::OdometryReference::kKeyframe
+                                                  : fusion::OdometryReference::kPreviousFrame,
+                         options.vo_covariance_scale);
+  }
+  if (const auto m = measurements->next(r)) engine->add_relative_pose(*m);
   for (const fusion::FusedState& s : engine->poll(/*imu_rate=*/false)) {
     FusedOutput f;
     f.t_ns = s.t_ns;
@@ -442,7 +448,8 @@ std::string OdometryCore::describe() const {
   for (std::string line; std::getline(lines, line);) os << "  " << line << "\n";
   if (m.fusion_options) {
     os << "fusion: " << m.fusion_options->describe()
-       << " vo_covariance_scale=" << m.options.vo_covariance_scale << "\n";
+       << " vo_covariance_scale=" << m.options.vo_covariance_scale
+       << " vo_from_keyframe=" << (m.options.vo_from_keyframe ? "true" : "false") << "\n";
   } else {
     os << "fusion: off\n";
   }

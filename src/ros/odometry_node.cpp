@@ -69,6 +69,7 @@ NodeParameters NodeParameters::load(const ::ros::NodeHandle& pnh) {
   read_param(pnh, "fusion_options", p.fusion_options, "a file name");
   read_param(pnh, "T_body_cam", p.T_body_cam, "a list of 16 numbers (row-major 4x4)");
   read_double(pnh, "vo_covariance_scale", p.vo_covariance_scale);
+  read_param(pnh, "vo_from_keyframe", p.vo_from_keyframe, "true or false");
   read_double(pnh, "max_imu_hold", p.max_imu_hold);
   read_double(pnh, "sync_tolerance", p.sync_tolerance);
   read_double(pnh, "depth_unit", p.depth_unit);
@@ -112,9 +113,11 @@ std::string NodeParameters::describe() const {
      << "\nuse_imu: " << (use_imu ? "true" : "false") << "\nimu_noise: " << imu_noise
      << "\nfusion_options: " << fusion_options
      << "\nT_body_cam: " << (T_body_cam.empty() ? "(default)" : "(16 numbers)")
-     << "\nvo_covariance_scale: " << vo_covariance_scale << "\nmax_imu_hold: " << max_imu_hold
-     << "\nsync_tolerance: " << sync_tolerance << "\ndepth_unit: " << depth_unit
-     << "\nqueue_size: " << queue_size << "\nodom_frame: " << odom_frame
+     << "\nvo_covariance_scale: " << vo_covariance_scale
+     << "\nvo_from_keyframe: " << (vo_from_keyframe ? "true" : "false")
+     << "\nmax_imu_hold: " << max_imu_hold << "\nsync_tolerance: " << sync_tolerance
+     << "\ndepth_unit: " << depth_unit << "\nqueue_size: " << queue_size
+     << "\nodom_frame: " << odom_frame
      << "\ncamera_frame: " << (camera_frame.empty() ? "(from the images)" : camera_frame)
      << "\nbase_frame: " << (base_frame.empty() ? "(none: TF of the camera)" : base_frame)
      << "\npublish_tf: " << (publish_tf ? "true" : "false") << "\nworld_frame: " << world_frame
@@ -142,6 +145,7 @@ OdometryNode::OdometryNode(::ros::NodeHandle nh, ::ros::NodeHandle private_nh)
         Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(params_.T_body_cam.data());
   }
   options.vo_covariance_scale = params_.vo_covariance_scale;
+  options.vo_from_keyframe = params_.vo_from_keyframe;
   options.max_imu_hold_s = params_.max_imu_hold;
   std::optional<CameraModel> camera;
   if (options.mode == OdometryMode::kRgbd && !params_.camera.empty()) {

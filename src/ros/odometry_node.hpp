@@ -38,6 +38,7 @@ struct NodeParameters {
   std::string fusion_options;
   std::vector<double> T_body_cam;  ///< 16 numbers, row-major; empty: see OdometryCoreOptions
   double vo_covariance_scale = 25.0;
+  bool vo_from_keyframe = true;
   double max_imu_hold = 0.5;     ///< s
   double sync_tolerance = 0.02;  ///< s, pairing of the two image streams
   double depth_unit = 0.001;     ///< m per unit of 16UC1 / mono16 depth

@@ -60,6 +60,10 @@ TEST(PipelineOptions, BadValuesNameTheirField) {
   EXPECT_NE(test::config_error_of(test::write_text(dir / "e.yaml", "input: x\ntracker:\n  no_such_option: 1\n"))
                 .find("no_such_option"),
             std::string::npos);
+  const std::string ref =
+      test::config_error_of(test::write_text(dir / "f.yaml", "input: x\nvo_reference: last\n"));
+  EXPECT_NE(ref.find("'vo_reference'"), std::string::npos) << ref;
+  EXPECT_NE(ref.find("keyframe, previous_frame"), std::string::npos) << ref;
 }
 
 TEST(PipelineOptions, RelativePathsAreTakenFromTheConfigFolder) {
@@ -70,6 +74,10 @@ TEST(PipelineOptions, RelativePathsAreTakenFromTheConfigFolder) {
   EXPECT_EQ(o.pace, Pace::kRecorded);
   EXPECT_TRUE(o.drops());  // recorded pace drops stale frames unless told otherwise
   EXPECT_EQ(o.frame_queue_capacity, 3u);
+  EXPECT_EQ(o.vo_reference, fusion::OdometryReference::kKeyframe);  // the default
+  const PipelineOptions p = PipelineOptions::load_yaml(
+      test::write_text(dir / "prev.yaml", "input: data/seq\nvo_reference: previous_frame\n"));
+  EXPECT_EQ(p.vo_reference, fusion::OdometryReference::kPreviousFrame);
 }
 
 TEST(Pipeline, MissingFolderIsAnInputErrorNamingIt) {

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/pattern.hpp"
@@ -51,6 +52,9 @@ struct StereoVisionOptions {
   /// The tracker's covariance is sigma^2 (J^T W J)^-1, which treats every pixel's residual
   /// as independent; neighbouring residuals are not, so the fusion gets it times this factor.
   double covariance_scale = 25.0;
+  /// What each measurement is relative to (fusion/odometry_measurement.hpp; docs/flight.md
+  /// compares the two in the closed loop).
+  fusion::OdometryReference measurement_reference = fusion::OdometryReference::kKeyframe;
   /// Frames further apart than this (odometry switched off, a stall): the tracker restarts.
   double max_frame_gap_s = 0.2;
 
@@ -63,8 +67,9 @@ struct StereoVisionOptions {
 struct VisionFrame {
   TimeNs t_ns = 0;
   odometry::TrackResult track;
-  /// The motion from the keyframe for the fusion (fusion::keyframe_measurement); a failed
-  /// frame, and the first after a restart, give one that only moves the filter's clone there.
+  /// The relative motion for the fusion (fusion::OdometryMeasurements::next(): with the
+  /// keyframe reference a failed frame, and the first after a restart, give one that only
+  /// moves the filter's clone there; with the previous-frame reference a failed frame none).
   std::optional<fusion::RelativePoseMeasurement> measurement;
   double depth_fill = 0.0;  ///< share of pixels with a disparity
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;
@@ -100,6 +105,7 @@ class StereoVision {
   odometry::DirectTracker tracker_;
   sim::StereoFrame frame_;
   cv::Mat left_gray_, right_gray_, tracking_gray_, disparity_, depth_m_;
+  fusion::OdometryMeasurements measurements_;
   std::optional<TimeNs> last_frame_ns_;
 };
 

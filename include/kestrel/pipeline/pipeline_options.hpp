@@ -9,6 +9,7 @@
 #include <string>
 
 #include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/odometry/direct_tracker_options.hpp"
 #include "kestrel/pipeline/camera_source_options.hpp"
 #include "kestrel/pipeline/controller_options.hpp"
@@ -42,6 +43,9 @@ struct PipelineOptions {
   /// The tracker's covariance treats pixels as independent; the fusion gets it times this
   /// (as flight/stereo_vision.hpp does).
   double vo_covariance_scale = 25.0;
+  /// What each odometry measurement is relative to (`vo_reference: keyframe|previous_frame`;
+  /// fusion/odometry_measurement.hpp, as `kestrel fly --vo-reference`).
+  fusion::OdometryReference vo_reference = fusion::OdometryReference::kKeyframe;
   std::filesystem::path output = "trajectory.txt";  ///< fused trajectory (TUM), under --out
 
   sensor::BlockMatcherOptions matcher;

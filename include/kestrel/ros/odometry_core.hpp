@@ -55,6 +55,9 @@ struct OdometryCoreOptions {
   std::optional<Eigen::Matrix4d> T_body_cam;
   /// Factor on the tracker's covariance before it is given to the EKF (as `kestrel run`).
   double vo_covariance_scale = 25.0;
+  /// Each odometry measurement relative to the keyframe (true) or to the previous tracked
+  /// frame (false), as `kestrel run`'s `vo_reference` (docs/flight.md compares them).
+  bool vo_from_keyframe = true;
   /// IMU samples are held until a frame at least as late has been tracked (so the EKF sees
   /// time order); samples older than the newest one minus this are released without a frame.
   double max_imu_hold_s = 0.5;
