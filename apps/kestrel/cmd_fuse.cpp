@@ -14,9 +14,11 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/fusion/experiments.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/fusion/simulation.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
+#include "kestrel/io/odometry_frame_log.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/text_lines.hpp"
 #include "kestrel/io/trajectory_io.hpp"
@@ -31,6 +33,9 @@ constexpr const char* kCommand = "fuse";
 struct FuseArgs {
   fs::path imu_path, vo_path, vo_cov_path, calib_path, camera_calib_path, options_path, out_path;
   fs::path states_path, init_path;
+  fs::path vo_frames_path;  // --vo-frames: `kestrel odometry --frames` log
+  std::string vo_reference = "keyframe";
+  double vo_cov_scale = 25.0;  // with --vo-frames, as kestrel run / kestrel fly
   bool imu_rate = false;
   bool force = false;
   double vo_sigma_p_m = 0.01;
@@ -92,11 +97,66 @@ std::optional<SE3> read_T_body_cam(const fs::path& calib, const fs::path& camera
 
 std::string flags_to_text(std::uint32_t flags) { return fusion::describe_flags(flags); }
 
+// --vo-frames: the odometry's own references and covariances (`kestrel odometry --frames`),
+// through the same OdometryMeasurements as kestrel run and kestrel fly. The poses come from
+// --vo (the tracker's, the prediction for a failed frame), so T_ref_cur = T_w_ref^-1 T_w_cur
+// is the motion the tracker reported.
+std::vector<fusion::RelativePoseMeasurement> frame_log_measurements(const FuseArgs& a,
+                                                                    const Trajectory& vo) {
+  fusion::OdometryReference reference{};
+  try {
+    reference = fusion::parse_odometry_reference(a.vo_reference);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("--vo-reference: ") + e.what());
+  }
+  if (!(a.vo_cov_scale > 0.0)) throw InputError("--vo-cov-scale must be positive");
+  const auto rows = io::read_odometry_frame_log(a.vo_frames_path);
+  std::map<TimeNs, SE3> pose;
+  for (const auto& p : vo) pose.emplace(p.t_ns, p.T_world_body);
+  // The TUM file's stamps are rounded to microseconds.
+  auto pose_at = [&](TimeNs t) -> const SE3& {
+    auto it = pose.lower_bound(t - 1000);
+    if (it == pose.end() || std::llabs(it->first - t) > 1000) {
+      throw InputError(a.vo_frames_path.string() + ": frame at t_ns " + std::to_string(t) +
+                       " has no pose in " + a.vo_path.string());
+    }
+    return it->second;
+  };
+  struct Track {  // the fields OdometryMeasurements reads
+    TimeNs t_ns = 0, ref_t_ns = 0;
+    SE3 T_ref_cur, T_world_cam;
+    Matrix6d covariance;
+    bool new_keyframe = false, tracked = false;
+    [[nodiscard]] bool ok() const { return tracked; }
+  };
+  fusion::OdometryMeasurements builder(reference, a.vo_cov_scale);
+  std::vector<fusion::RelativePoseMeasurement> out;
+  for (const auto& r : rows) {
+    Track t;
+    t.t_ns = r.t_ns;
+    t.ref_t_ns = r.ref_t_ns;
+    t.tracked = r.ok;
+    t.new_keyframe = r.new_keyframe;
+    t.covariance = r.covariance;
+    t.T_world_cam = pose_at(r.t_ns);
+    if (r.ok && r.ref_t_ns != r.t_ns) t.T_ref_cur = pose_at(r.ref_t_ns).inverse() * t.T_world_cam;
+    if (auto m = builder.next(t)) out.push_back(*m);
+  }
+  std::cerr << "kestrel fuse: " << out.size() << " measurements from " << rows.size()
+            << " frames of " << a.vo_frames_path.string() << " (reference "
+            << fusion::odometry_reference_name(reference) << ", covariance x" << a.vo_cov_scale
+            << ")\n";
+  return out;
+}
+
 void run_fuse(const FuseArgs& a) {
   std::cerr << "kestrel fuse: imu=" << a.imu_path.string() << " vo=" << a.vo_path.string()
             << " vo-cov=" << (a.vo_cov_path.empty() ? "(none)" : a.vo_cov_path.string())
             << " calib=" << a.calib_path.string() << " out=" << a.out_path.string()
             << " imu-rate=" << (a.imu_rate ? "true" : "false") << "\n";
+  if (!a.vo_frames_path.empty() && !a.vo_cov_path.empty()) {
+    throw InputError("--vo-frames and --vo-cov exclude each other (the log has the covariances)");
+  }
   io::check_can_write_file(a.out_path, kCommand, a.force);
   if (!a.states_path.empty()) io::check_can_write_file(a.states_path, kCommand, a.force);
   if (!(a.vo_sigma_p_m > 0.0) || !(a.vo_sigma_rot_deg > 0.0)) {
@@ -124,22 +184,26 @@ void run_fuse(const FuseArgs& a) {
   def << Eigen::Vector3d::Constant(a.vo_sigma_p_m * a.vo_sigma_p_m), Eigen::Vector3d::Constant(sr * sr);
 
   std::vector<fusion::RelativePoseMeasurement> meas;
-  for (std::size_t k = 1; k < vo.size(); ++k) {
-    fusion::RelativePoseMeasurement m;
-    m.t_ref_ns = vo[k - 1].t_ns;
-    m.t_ns = vo[k].t_ns;
-    m.T_ref_cur = vo[k - 1].T_world_body.inverse() * vo[k].T_world_body;
-    if (!covs.empty()) {
-      auto it = covs.find(m.t_ns);
-      if (it == covs.end()) {
-        throw InputError(a.vo_cov_path.string() + ": no covariance for the VO time stamp " +
-                         io::format_seconds(m.t_ns) + " s");
+  if (!a.vo_frames_path.empty()) {
+    meas = frame_log_measurements(a, vo);
+  } else {
+    for (std::size_t k = 1; k < vo.size(); ++k) {
+      fusion::RelativePoseMeasurement m;
+      m.t_ref_ns = vo[k - 1].t_ns;
+      m.t_ns = vo[k].t_ns;
+      m.T_ref_cur = vo[k - 1].T_world_body.inverse() * vo[k].T_world_body;
+      if (!covs.empty()) {
+        auto it = covs.find(m.t_ns);
+        if (it == covs.end()) {
+          throw InputError(a.vo_cov_path.string() + ": no covariance for the VO time stamp " +
+                           io::format_seconds(m.t_ns) + " s");
+        }
+        m.covariance = it->second;
+      } else {
+        m.covariance = def.asDiagonal();
       }
-      m.covariance = it->second;
-    } else {
-      m.covariance = def.asDiagonal();
+      meas.push_back(m);
     }
-    meas.push_back(m);
   }
 
   fusion::FusionEngine engine(options);
@@ -294,6 +358,16 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_option("--vo-cov", a->vo_cov_path,
                   "per-frame covariance of each relative motion: 'timestamp' + 6 variances or "
                   "36 values, left perturbation [v, w] in the previous camera frame");
+  cmd->add_option("--vo-frames", a->vo_frames_path,
+                  "the per-frame log of `kestrel odometry --frames` for --vo: measurements "
+                  "from the odometry's keyframes with its covariances (instead of consecutive "
+                  "poses)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--vo-reference", a->vo_reference,
+                  "with --vo-frames: keyframe (default) or previous_frame");
+  cmd->add_option("--vo-cov-scale", a->vo_cov_scale,
+                  "with --vo-frames: factor on the odometry's covariance")
+      ->capture_default_str();
   cmd->add_option("--calib", a->calib_path,
                   "IMU sensor YAML (EuRoC imu0/sensor.yaml: noise densities, random walks, "
                   "rate); may hold T_body_cam (4x4) for the odometry camera")->required();

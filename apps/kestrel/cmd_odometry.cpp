@@ -19,6 +19,7 @@
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
+#include "kestrel/io/odometry_frame_log.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
@@ -63,12 +64,17 @@ class FrameLog {
   FrameLog(const std::filesystem::path& path, bool force) {
     if (path.empty()) return;
     // clang-format off
-    csv_.emplace(path, std::vector<std::string>{
+    std::vector<std::string> columns{
         "frame", "t_ns", "ref_t_ns", "ok", "failure", "converged", "iterations", "sigma",
         "photometric_level", "inlier_ratio", "overlap", "points", "gain", "bias", "new_keyframe",
         "geometric_fallback", "retried_previous", "track_ms",
-        "sd_tx_m", "sd_ty_m", "sd_tz_m", "sd_rx_deg", "sd_ry_deg", "sd_rz_deg"}, kCommand, force);
+        "sd_tx_m", "sd_ty_m", "sd_tz_m", "sd_rx_deg", "sd_ry_deg", "sd_rz_deg"};
     // clang-format on
+    // The full covariance, for `kestrel fuse --vo-frames` (io/odometry_frame_log.hpp).
+    for (int r = 0; r < 6; ++r) {
+      for (int c = r; c < 6; ++c) columns.push_back(io::frame_log_covariance_column(r, c));
+    }
+    csv_.emplace(path, columns, kCommand, force);
   }
 
   void add(std::size_t frame, const odometry::TrackResult& r, double track_ms) {
@@ -85,6 +91,9 @@ class FrameLog {
     const Eigen::Matrix<double, 6, 1> sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
     for (int k = 0; k < 3; ++k) c.add(sd(k));
     for (int k = 3; k < 6; ++k) c.add(sd(k) * 180.0 / std::numbers::pi);
+    for (int i = 0; i < 6; ++i) {
+      for (int j = i; j < 6; ++j) c.add(r.covariance(i, j));
+    }
     c.end_row();
   }
 

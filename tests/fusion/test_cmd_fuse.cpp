@@ -143,11 +143,85 @@ TEST_F(CmdFuse, WritesOneAccurateBodyPosePerOdometryFrame) {
   // reports 1-sigma 0.12 m per axis and 0.05 rad in yaw at the end (the unknown yaw-axis gyro
   // bias integrates; 0.5 deg relative rotations teach it slowly), measured worst errors
   // 0.24 m and 2.3 deg. Bounds at about 3 sigma, and better than chaining the odometry.
+  std::cout << "consecutive poses: worst position error " << worst_p << " m\n";
   EXPECT_LT(worst_p, 0.45);
   EXPECT_LT(worst_rot_deg, 6.0);
   EXPECT_LT(worst_rot_deg, chained_final_rot_deg_ + 1.0);
   EXPECT_TRUE(fs::exists(dir_ / "states.txt"));
   EXPECT_NE(slurp(dir_ / "states.txt").find("updated"), std::string::npos);
+}
+
+// --vo-frames: the odometry's keyframes and covariances from a `kestrel odometry --frames` log.
+// The same simulated motions, grouped into keyframes of 5 frames: each frame's motion from its
+// keyframe is the chain of its noisy increments (the chained poses of vo.txt), its covariance
+// the sum of theirs.
+TEST_F(CmdFuse, FrameLogGivesKeyframeMeasurementsAsAccurateAsConsecutivePoses) {
+  constexpr int kPerKeyframe = 5;
+  {
+    std::ofstream csv(dir_ / "frames.csv");
+    csv << "# written by kestrel odometry\nframe,t_ns,ref_t_ns,ok,new_keyframe";
+    for (int r = 0; r < 6; ++r) {
+      for (int c = r; c < 6; ++c) csv << ",cov_" << r << c;
+    }
+    csv << "\n" << std::setprecision(17);
+    const double sp2 = sim_.vo_sigma_p_m * sim_.vo_sigma_p_m;
+    const double sr = sim_.vo_sigma_rot_deg * M_PI / 180.0;
+    auto row = [&](int frame, TimeNs t, TimeNs ref, bool keyframe, int steps) {
+      csv << frame << "," << t << "," << ref << ",1," << (keyframe ? 1 : 0);
+      for (int r = 0; r < 6; ++r) {
+        for (int c = r; c < 6; ++c) csv << "," << (r == c ? steps * (r < 3 ? sp2 : sr * sr) : 0.0);
+      }
+      csv << "\n";
+    };
+    row(0, kT0, kT0, true, 0);
+    TimeNs keyframe_t = kT0;
+    for (std::size_t i = 0; i < run_.odometry.size(); ++i) {
+      const TimeNs t = kT0 + run_.odometry[i].t_ns;
+      const int steps = static_cast<int>(i % kPerKeyframe) + 1;
+      const bool keyframe = steps == kPerKeyframe;
+      row(static_cast<int>(i) + 1, t, keyframe_t, keyframe, steps);
+      if (keyframe) keyframe_t = t;
+    }
+  }
+  const RunResult r = run(common_args(dir_ / "imu.yaml") + " --vo-frames " +
+                          quoted((dir_ / "frames.csv").string()) + " --vo-cov-scale 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("measurements from " + std::to_string(run_.odometry.size() + 1) + " frames"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("reference keyframe"), std::string::npos) << r.err;
+  double worst_p = 0.0;
+  std::size_t matched = 0;
+  std::ifstream in(dir_ / "fused.txt");
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    double t, x, y, z;
+    ASSERT_TRUE(static_cast<bool>(ls >> t >> x >> y >> z)) << line;
+    for (const auto& [tt, T] : truth_) {
+      if (std::llabs(tt - s_to_ns(t)) > 1'000'000) continue;
+      ++matched;
+      worst_p = std::max(worst_p, (Eigen::Vector3d(x, y, z) - T.translation()).norm());
+    }
+  }
+  EXPECT_EQ(matched, truth_.size());
+  std::cout << "frame log: worst position error " << worst_p << " m\n";
+  EXPECT_LT(worst_p, 0.45);  // the bound of the consecutive-pose test above
+
+  // A log without the covariance columns, or together with --vo-cov: errors naming them.
+  {
+    std::ofstream(dir_ / "short.csv") << "t_ns,ref_t_ns,ok,new_keyframe\n"
+                                      << kT0 << "," << kT0 << ",1,1\n";
+  }
+  const RunResult bad = run(common_args(dir_ / "imu.yaml") + " --force --vo-frames " +
+                            quoted((dir_ / "short.csv").string()));
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("no column 'cov_00'"), std::string::npos) << bad.err;
+  const RunResult both = run(common_args(dir_ / "imu.yaml") + " --force --vo-frames " +
+                             quoted((dir_ / "frames.csv").string()) + " --vo-cov " +
+                             quoted((dir_ / "frames.csv").string()));
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.err.find("exclude each other"), std::string::npos) << both.err;
 }
 
 TEST_F(CmdFuse, MissingCalibrationFieldIsAClearError) {
