@@ -112,6 +112,11 @@ class Collector {
     std::lock_guard<std::mutex> lock(mutex_);
     return gyro_biases_;
   }
+  /// The fused states and the gyro-bias messages counted so far, at one instant.
+  std::pair<std::vector<nav_msgs::Odometry>, std::size_t> fused_and_gyro_biases() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return {fused_states_, gyro_biases_};
+  }
   [[nodiscard]] bool connected() const { return odom_.getNumPublishers() > 0; }
 
  private:
@@ -381,10 +386,18 @@ TEST(RosLiveNode, StereoWithImuPublishesFusedStates) {
         << "no odometry for pair " << i << "\n"
         << node.log();
   }
-  ASSERT_TRUE(wait_until([&] { return collector.fused().size() >= 5; }, 10.0))
-      << collector.fused().size() << " fused states\n"
+  // Each fused state comes with a gyro-bias message on its own topic: wait for both (under load
+  // the last pair of messages can arrive one after the other's check).
+  ASSERT_TRUE(wait_until(
+      [&] {
+        const auto [states, biases] = collector.fused_and_gyro_biases();
+        return states.size() >= 5 && biases == states.size();
+      },
+      10.0))
+      << collector.fused().size() << " fused states, " << collector.gyro_biases()
+      << " gyro biases\n"
       << node.log();
-  const auto fused = collector.fused();
+  const auto [fused, gyro_biases] = collector.fused_and_gyro_biases();
   for (const auto& s : fused) {
     EXPECT_EQ(s.header.frame_id, "world");
     EXPECT_EQ(s.child_frame_id, "imu4");
@@ -393,7 +406,7 @@ TEST(RosLiveNode, StereoWithImuPublishesFusedStates) {
               1.0);
     EXPECT_GT(s.pose.covariance[0], 0.0);
   }
-  EXPECT_EQ(collector.gyro_biases(), fused.size());
+  EXPECT_EQ(gyro_biases, fused.size());
   std::cout << "stereo + IMU live: " << collector.odometry_count() << " odometry, " << fused.size()
             << " fused states\n";
   expect_stops_cleanly(node, "published=60 dropped=0");
