@@ -197,6 +197,56 @@ RpeResult compute_rpe(const Trajectory& gt, const Trajectory& est,
   return result;
 }
 
+FrameRotationFit fit_frame_rotation(const Trajectory& gt, const Trajectory& est,
+                                    const RpeResult& rpe) {
+  // Residual of one window: log(D_est^-1 R^T D_gt R) (zero when the estimate's motion is the
+  // ground truth's seen from a frame turned by R); its Jacobian in a right perturbation of R by
+  // central differences (3 parameters, a few hundred windows: exactness costs nothing here).
+  std::vector<std::pair<SO3, SO3>> motions;  // (D_est, D_gt) rotations
+  motions.reserve(rpe.pairs.size());
+  for (const RpePair& p : rpe.pairs) {
+    motions.emplace_back(est[p.est0].T_world_body.so3().inverse() * est[p.est1].T_world_body.so3(),
+                         gt[p.gt0].T_world_body.so3().inverse() * gt[p.gt1].T_world_body.so3());
+  }
+  auto residual = [](const SO3& D_est, const SO3& D_gt, const SO3& R) {
+    return (D_est.inverse() * R.inverse() * D_gt * R).log();
+  };
+  FrameRotationFit fit;
+  double cost = 0.0;
+  for (int it = 0; it < 20 && !motions.empty(); ++it) {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    cost = 0.0;
+    for (const auto& [D_est, D_gt] : motions) {
+      const Eigen::Vector3d r = residual(D_est, D_gt, fit.R);
+      cost += r.squaredNorm();
+      Eigen::Matrix3d J;
+      for (int a = 0; a < 3; ++a) {
+        Eigen::Vector3d h = Eigen::Vector3d::Zero();
+        h(a) = 1e-6;
+        J.col(a) = (residual(D_est, D_gt, fit.R * SO3::exp(h)) -
+                    residual(D_est, D_gt, fit.R * SO3::exp(-h))) /
+                   2e-6;
+      }
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    const Eigen::Vector3d step = -H.ldlt().solve(g);
+    if (!step.allFinite()) break;
+    fit.R = fit.R * SO3::exp(step);
+    if (step.norm() < 1e-10) {
+      fit.converged = true;
+      break;
+    }
+  }
+  double sq = 0.0;
+  for (const auto& [D_est, D_gt] : motions) sq += residual(D_est, D_gt, fit.R).squaredNorm();
+  fit.rot_rmse_deg_s = motions.empty() ? 0.0
+                                       : std::sqrt(sq / static_cast<double>(motions.size())) *
+                                             kRadToDeg / rpe.delta_s;
+  return fit;
+}
+
 void write_rpe_csv(const std::filesystem::path& path, const Trajectory& gt, const Trajectory& est,
                    const RpeResult& rpe, std::string_view command, bool force) {
   CsvWriter csv(

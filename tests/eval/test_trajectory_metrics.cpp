@@ -152,6 +152,27 @@ TEST(Rpe, ConstantRotationRateErrorGivesThatRate) {
   EXPECT_NEAR(rpe.rot_rad.max * kRadToDeg, 2.0, 1e-9);
 }
 
+// A camera frame turned by a fixed R0 against the one the ground truth gives it (a hand-eye
+// calibration error): the estimate's body is the ground truth's times R0, so every window's
+// motion is R0^T D_gt R0. The RPE sees an error growing with the motion; the diagnostic fit
+// recovers R0 and, with it removed, no error; an exact copy fits the identity.
+TEST(FrameRotationFit, RecoversAConstantCameraFrameOffset) {
+  const Trajectory gt = test::sample_trajectory(1000, kT0Ns, 10 * kMs);
+  const SO3 R0 = SO3::exp(Eigen::Vector3d(0.015, -0.006, 0.002));  // 0.93 deg
+  Trajectory est = gt;
+  for (auto& p : est) p.T_world_body = p.T_world_body * SE3(R0, Eigen::Vector3d::Zero());
+  const RpeResult rpe = compute_rpe(gt, est, {});
+  EXPECT_GT(rpe.rot_rmse_deg_s(), 0.1);  // the offset alone costs a visible RPE
+  const FrameRotationFit fit = fit_frame_rotation(gt, est, rpe);
+  EXPECT_TRUE(fit.converged);
+  EXPECT_LT((fit.R.inverse() * R0).log().norm(), 1e-7);
+  EXPECT_LT(fit.rot_rmse_deg_s, 1e-5);
+
+  const FrameRotationFit none = fit_frame_rotation(gt, gt, compute_rpe(gt, gt, {}));
+  EXPECT_LT(none.R.log().norm(), 1e-9);
+  EXPECT_LT(none.rot_rmse_deg_s, 1e-9);
+}
+
 TEST(Rpe, SkipsWindowsWithoutNearbyGroundTruth) {
   // Ground truth every 10 ms with a 0.5 s hole: est poses in the hole have no gt within two
   // gt intervals (20 ms) and their windows are left out.

@@ -19,6 +19,7 @@ struct Evaluation {
   std::size_t est_poses = 0;
   AteResult ate;
   RpeResult rpe;
+  FrameRotationFit frame_rotation;  ///< diagnostic (fit_frame_rotation), not a benchmark figure
   std::vector<AxisErrorSample> axes;
   TimeNs t0_ns = 0;  ///< time origin of the figures and CSVs: the first associated gt stamp
 };

@@ -72,6 +72,19 @@ struct RpeResult {
 RpeResult compute_rpe(const Trajectory& gt, const Trajectory& est,
                       const EvaluationOptions& options);
 
+/// A diagnostic, not a benchmark figure: the constant rotation R between the estimate's body
+/// frame and the ground truth's that best explains the rotations of the RPE windows (the
+/// estimate's motion D_est against R^T D_gt R, Gauss-Newton on the sum of squared angles),
+/// and the rotational RPE with it removed. A calibration offset between a sensor and the frame
+/// the ground truth gives it shows up as the same R for different methods (docs/evaluation.md).
+struct FrameRotationFit {
+  SO3 R;                        ///< from the ground truth's body frame to the estimate's
+  double rot_rmse_deg_s = 0.0;  ///< the rotational RPE with R removed (deg per window length)
+  bool converged = false;
+};
+FrameRotationFit fit_frame_rotation(const Trajectory& gt, const Trajectory& est,
+                                    const RpeResult& rpe);
+
 /// evaluate_rpe.py's find_closest_index(): a bisection over sorted `t_ns` returning the index
 /// of the stamp closest to t (ties: the first best found on the bisection path). `t_ns` must
 /// not be empty.
