@@ -127,7 +127,7 @@ struct OdometryCore::Impl {
   // Fusion.
   std::optional<fusion::FusionOptions> fusion_options;
   std::unique_ptr<fusion::FusionEngine> engine;
-  std::optional<fusion::OdometryMeasurements> measurements;
+  std::optional<fusion::OdometryMeasurements> measurements;  // set by the constructor
   std::deque<io::ImuSample> held_imu;
   std::size_t imu_rejected = 0, fused_states = 0;
 
@@ -208,6 +208,9 @@ OdometryCore::OdometryCore(const OdometryCoreOptions& options,
     throw InputError("vo_covariance_scale must be positive");
   }
   if (!(options.max_imu_hold_s > 0.0)) throw InputError("max_imu_hold_s must be positive");
+  m.measurements.emplace(options.vo_from_keyframe ? fusion::OdometryReference::kKeyframe
+                                                  : fusion::OdometryReference::kPreviousFrame,
+                         options.vo_covariance_scale);
   m.tracker_options = options.tracker_options_file.empty()
                           ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(options.tracker_options_file);
@@ -257,7 +260,7 @@ void OdometryCore::reset() {
   m.keyframe.reset();
   m.previous.reset();
   m.held_imu.clear();
-  m.measurements.reset();
+  m.measurements->reset();
   if (m.fusion_options) m.engine = std::make_unique<fusion::FusionEngine>(*m.fusion_options);
 }
 
@@ -391,11 +394,6 @@ std::vector<FusedOutput> OdometryCore::Impl::fuse(const odometry::TrackResult& r
   if (!engine) return out;
   release_imu_until(r.t_ns);
   // As `kestrel run`'s tracker stage.
-  if (!measurements) {
-    measurements.emplace(options.vo_from_keyframe ? fusion::OdometryReference::kKeyframe
-                                                  : fusion::OdometryReference::kPreviousFrame,
-                         options.vo_covariance_scale);
-  }
   if (const auto m = measurements->next(r)) engine->add_relative_pose(*m);
   for (const fusion::FusedState& s : engine->poll(/*imu_rate=*/false)) {
     FusedOutput f;

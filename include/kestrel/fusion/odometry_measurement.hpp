@@ -69,8 +69,6 @@ class OdometryMeasurements {
   /// Forgets the last tracked frame (the tracker was reset).
   void reset() { last_.reset(); }
 
-  [[nodiscard]] OdometryReference reference() const { return reference_; }
-
  private:
   static void clone_only(RelativePoseMeasurement& m) {
     m.t_ref_ns = m.t_ns;  // nothing to measure: the fusion only clones here
