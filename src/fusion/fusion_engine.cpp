@@ -53,6 +53,14 @@ FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
       {"init_sigma_accel_bias_m_s2", &o.init_sigma_accel_bias_m_s2}};
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
+    if (key == "first_estimate_jacobians") {
+      try {
+        o.first_estimate_jacobians = kv.second.as<bool>();
+      } catch (const YAML::Exception&) {
+        throw InputError(path, key, "must be true or false");
+      }
+      continue;
+    }
     bool known = false;
     for (const auto& [name, ptr] : fields) {
       if (name != key) continue;
@@ -84,10 +92,11 @@ std::string FusionOptions::describe() const {
   std::ostringstream s;
   s << "gyro_noise=" << noise.gyro_noise << " gyro_walk=" << noise.gyro_walk
     << " accel_noise=" << noise.accel_noise << " accel_walk=" << noise.accel_walk
-    << " g=" << gravity_m_s2 << " gate_p=" << gate_probability
-    << " dropout=" << dropout_timeout_s << "s max_imu_gap=" << max_imu_gap_s
-    << "s reorder=" << reorder_window_s << "s static_init=" << static_init_s
-    << "s T_body_cam.t=[" << T_body_cam.translation().transpose() << "]";
+    << " g=" << gravity_m_s2 << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
+    << "s max_imu_gap=" << max_imu_gap_s << "s reorder=" << reorder_window_s
+    << "s static_init=" << static_init_s
+    << "s first_estimates=" << (first_estimate_jacobians ? "on" : "off") << " T_body_cam.t=["
+    << T_body_cam.translation().transpose() << "]";
   return s.str();
 }
 
@@ -194,6 +203,7 @@ std::optional<NominalState> static_initial_state(const std::vector<io::ImuSample
 FusionEngine::FusionEngine(FusionOptions options) : options_(std::move(options)) {
   options_.validate();
   ekf_ = StochasticCloningEkf(options_.noise, Vector3d(0.0, 0.0, -options_.gravity_m_s2));
+  ekf_.set_first_estimate_jacobians(options_.first_estimate_jacobians);
   gate_chi2_ = options_.gate_probability > 0.0
                    ? chi_square_quantile(options_.gate_probability, 6.0)
                    : 0.0;

@@ -72,6 +72,7 @@ void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d
   }
   x_ = state;
   x_.q_world_body.normalize();
+  before_update_.reset();
   P_.setZero();
   P_.topLeftCorner<idx::kCore, idx::kCore>() = 0.5 * (covariance + covariance.transpose());
   clone();
@@ -115,6 +116,29 @@ Matrix15d StochasticCloningEkf::transition(const NominalState& x, const ImuReadi
   return F;
 }
 
+Matrix15d StochasticCloningEkf::transition_first_estimates(const NominalState& x,
+                                                           const NominalState& fe,
+                                                           const NominalState& next,
+                                                           const ImuReading& m, double dt,
+                                                           const Vector3d& g) {
+  // A yaw about gravity z moves the error state along N(x) = [z x p, R^T z, z x v, 0, 0] (and
+  // the clone alike); translation along [I, 0, 0, 0, 0]. The attitude columns are chosen so
+  // that F N(fe) = N(next) (Li & Mourikis 2013, eqs. 26-28, in the body-frame error):
+  //   F_tt = R_next^T R_fe,  F_vt = -[v_next - v_fe - g dt]x R_fe,
+  //   F_pt = -[p_next - p_fe - v_fe dt - g dt^2 / 2]x R_fe.
+  // With fe = x they are transition()'s (R a dt = v_next - v - g dt), so between updates the
+  // two agree; they differ in the first step after an update, whose fe is the estimate before it.
+  Matrix15d F = transition(x, m, dt);
+  const Matrix3d R_fe = fe.q_world_body.toRotationMatrix();
+  const Matrix3d R_next = next.q_world_body.toRotationMatrix();
+  const Vector3d dv = next.v_world - fe.v_world - g * dt;
+  const Vector3d dp = next.p_world - fe.p_world - fe.v_world * dt - 0.5 * g * dt * dt;
+  F.block<3, 3>(idx::kTheta, idx::kTheta) = R_next.transpose() * R_fe;
+  F.block<3, 3>(idx::kV, idx::kTheta) = -SO3::hat(dv) * R_fe;
+  F.block<3, 3>(idx::kP, idx::kTheta) = -SO3::hat(dp) * R_fe;
+  return F;
+}
+
 Matrix15d StochasticCloningEkf::process_noise(const ImuNoiseDensities& n, double dt) {
   // dQ = dt * cQ (thesis eq. 4.5) mapped by G: dtheta <- -n_g, dv <- -R n_a (isotropic,
   // so R drops out), db_g <- n_bg, db_a <- n_ba.
@@ -133,9 +157,14 @@ void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
   if (!m.gyro_rad_s.allFinite() || !m.accel_m_s2.allFinite()) {
     throw std::invalid_argument("StochasticCloningEkf::propagate: non-finite IMU reading");
   }
-  const Matrix15d F = transition(x_, m, dt);
+  const NominalState before = x_;
   x_ = propagate_nominal(x_, m, dt, g_world_);
   x_.t_ns += s_to_ns(dt);
+  const Matrix15d F =
+      first_estimates_
+          ? transition_first_estimates(before, before_update_.value_or(before), x_, m, dt, g_world_)
+          : transition(before, m, dt);
+  before_update_.reset();
   // P <- F P F^T + dQ on the current block; the clone block is unchanged and the cross
   // block becomes F P_xc (the growing correlation the thesis describes after eq. 4.6).
   auto Pcc = P_.topLeftCorner<idx::kCore, idx::kCore>();
@@ -196,7 +225,14 @@ UpdateResult StochasticCloningEkf::update(const SE3& measured, const Matrix6d& c
   const Matrix6d Rm = left_to_residual_covariance(measured, cov_left);
   const SE3 predicted = predict_relative_pose(x_);
   result.residual = residual(measured, predicted);
-  const Matrix6xs H = measurement_jacobian(x_);
+  // The Jacobian at the first estimates: the current state as propagated (no update has moved
+  // it yet at this time) and the clone as it was first estimated.
+  NominalState x_lin = x_;
+  if (first_estimates_) {
+    x_lin.p_clone_world = p_clone_first_;
+    x_lin.q_world_clone = q_clone_first_;
+  }
+  const Matrix6xs H = measurement_jacobian(x_lin);
   const Eigen::Matrix<double, idx::kDim, 6> PHt = P_ * H.transpose();
   Matrix6d S = H * PHt + Rm;
   S = 0.5 * (S + S.transpose());
@@ -219,11 +255,18 @@ UpdateResult StochasticCloningEkf::update(const SE3& measured, const Matrix6d& c
   IKH.diagonal().array() += 1.0;
   MatrixXs Pn = IKH * P_ * IKH.transpose() + K * Rm * K.transpose();
   P_ = 0.5 * (Pn + Pn.transpose());
+  if (!before_update_) before_update_ = x_;  // the first of updates without a step between
   x_ = x_.boxplus(dx);
   return result;
 }
 
 void StochasticCloningEkf::clone() {
+  // The clone's first estimate is the current pose's: after an update, the estimate the update
+  // started from (the point its Jacobian, and so the covariance's unobservable directions, were
+  // taken at).
+  const NominalState& first = before_update_ ? *before_update_ : x_;
+  p_clone_first_ = first.p_world;
+  q_clone_first_ = first.q_world_body;
   x_.p_clone_world = x_.p_world;
   x_.q_world_clone = x_.q_world_body;
   x_.clone_t_ns = x_.t_ns;

@@ -350,6 +350,17 @@ TEST(FusionBehaviour, MissingCalibrationFieldIsAnErrorNamingIt) {
   }
   std::ofstream(dir / "bad.yaml") << "gyroscope_noise_density: -1\n";
   EXPECT_THROW((void)FusionOptions::load_yaml(dir / "bad.yaml"), InputError);
+  std::ofstream(dir / "fej.yaml") << "first_estimate_jacobians: false\n";
+  EXPECT_FALSE(FusionOptions::load_yaml(dir / "fej.yaml").first_estimate_jacobians);
+  EXPECT_TRUE(FusionOptions{}.first_estimate_jacobians);
+  std::ofstream(dir / "fej_bad.yaml") << "first_estimate_jacobians: sometimes\n";
+  try {
+    (void)FusionOptions::load_yaml(dir / "fej_bad.yaml");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("first_estimate_jacobians"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(FusionBehaviour, StaticInitialisationWaitsForStillness) {

@@ -96,6 +96,58 @@ TEST(FusionJacobians, MeasurementJacobianMatchesFiniteDifferences) {
   }
 }
 
+// The directions no relative-pose measurement can see, at state x (core rows, clone rows from
+// the clone pose given): a global translation (3 columns) and a yaw about gravity z (1 column).
+Eigen::Matrix<double, idx::kDim, 4> unobservable(const NominalState& x, const SE3& clone) {
+  Eigen::Matrix<double, idx::kDim, 4> N = Eigen::Matrix<double, idx::kDim, 4>::Zero();
+  const Vector3d z = Vector3d::UnitZ();
+  N.block<3, 3>(idx::kP, 0).setIdentity();
+  N.block<3, 3>(idx::kPd, 0).setIdentity();
+  N.block<3, 1>(idx::kP, 3) = z.cross(x.p_world);
+  N.block<3, 1>(idx::kTheta, 3) = x.q_world_body.toRotationMatrix().transpose() * z;
+  N.block<3, 1>(idx::kV, 3) = z.cross(x.v_world);
+  N.block<3, 1>(idx::kPd, 3) = z.cross(clone.translation());
+  N.block<3, 1>(idx::kThetaD, 3) = clone.rotation_matrix().transpose() * z;
+  return N;
+}
+
+TEST(FusionJacobians, MeasurementJacobianAnnihilatesTheUnobservableDirections) {
+  std::mt19937_64 rng(13);
+  for (int trial = 0; trial < 50; ++trial) {
+    const NominalState x = random_state(rng);
+    const auto N = unobservable(x, x.T_world_clone());
+    EXPECT_LT((StochasticCloningEkf::measurement_jacobian(x) * N).norm(), 1e-12) << trial;
+  }
+}
+
+// First-estimates transition (Li & Mourikis 2013): at fe = x it is transition(); at a first
+// estimate fe != x it maps the unobservable directions at fe onto those after the step, which
+// the transition at x does not (it maps those at x).
+TEST(FusionJacobians, FirstEstimatesTransitionMapsTheUnobservableDirections) {
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const Vector3d g(0, 0, -9.81);
+  for (int trial = 0; trial < 50; ++trial) {
+    const NominalState x = random_state(rng);
+    const ImuReading m = random_reading(rng);
+    const double dt = trial % 2 ? 0.005 : 0.05;
+    const NominalState next = StochasticCloningEkf::propagate_nominal(x, m, dt, g);
+    const Matrix15d F = StochasticCloningEkf::transition(x, m, dt);
+    EXPECT_LT((StochasticCloningEkf::transition_first_estimates(x, x, next, m, dt, g) - F).norm(),
+              1e-9);
+    VectorXs d = VectorXs::Zero();  // an update's correction: fe = x before it
+    for (int i = 0; i < idx::kCore; ++i) d(i) = 0.05 * n(rng);
+    const NominalState fe = x.boxplus(d);
+    const Matrix15d Ffe = StochasticCloningEkf::transition_first_estimates(x, fe, next, m, dt, g);
+    const Eigen::Matrix<double, idx::kCore, 4> N_fe =
+        unobservable(fe, fe.T_world_clone()).topRows<idx::kCore>();
+    const Eigen::Matrix<double, idx::kCore, 4> N_next =
+        unobservable(next, next.T_world_clone()).topRows<idx::kCore>();
+    EXPECT_LT((Ffe * N_fe - N_next).norm(), 1e-9) << trial;
+    EXPECT_GT((F * N_fe - N_next).norm(), 1e-4) << trial;  // the plain one does not
+  }
+}
+
 TEST(FusionJacobians, LeftPerturbationCovarianceMapping) {
   // residual(exp(xi) T, T) ~ J xi: check J column by column with finite differences.
   std::mt19937_64 rng(5);

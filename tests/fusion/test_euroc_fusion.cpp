@@ -17,14 +17,15 @@ TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
   o.init_sigma_accel_bias_m_s2 = 0.2;
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, {});
   std::cout << format_result(r);
-  // Issue target, met (0.327 vs 0.779 m): fused RMSE at most half of chaining.
+  // Issue target, met (0.268 vs 0.779 m; 0.327 before the first-estimates Jacobians).
   EXPECT_LE(r.fused_rmse_m, 0.5 * r.chained_rmse_m);
-  // REGRESSION GUARDS, NOT the issue targets (missed, see docs/fusion.md): gyro-bias error
-  // 0.0058 rad/s at 20 s (target 0.003) and 1.18 m in the 2 s gap (target 0.3 m), both from
-  // the yaw-axis bias, which 0.5 deg relative rotations pin only to ~0.17/sqrt(n) rad/s.
-  EXPECT_LT(r.gyro_bias_error_at_check, 0.007);
-  EXPECT_LT(r.gyro_bias_error_max_after, 0.007);
-  EXPECT_LT(r.gap_max_error_m, 1.5);
+  // The gyro-bias error at 20 s meets the issue's 0.003 rad/s (0.0026; 0.0058 before the
+  // first-estimates Jacobians), but not on every later sample (max 0.0045: a REGRESSION GUARD);
+  // the 2 s gap's 1.07 m misses the 0.3 m target (guard): frame-to-frame 0.5 deg rotations pin
+  // the yaw-axis bias only to ~0.17/sqrt(n) rad/s (docs/fusion.md).
+  EXPECT_LE(r.gyro_bias_error_at_check, 0.003);
+  EXPECT_LT(r.gyro_bias_error_max_after, 0.006);
+  EXPECT_LT(r.gap_max_error_m, 1.3);
   EXPECT_LT(r.fused_rot_rmse_deg, 5.0);
   EXPECT_TRUE(r.gap_flag_raised);
   EXPECT_EQ(r.counters.updates_invalid, 0u);
@@ -41,15 +42,16 @@ TEST(FusionEuroc, V1_02StaticStartBias) {
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
   std::cout << format_result(r);
   EXPECT_LE(r.fused_rmse_m, 0.5 * r.chained_rmse_m);
-  // REGRESSION GUARDS (measured 0.0038 rad/s, 1.10 m; targets 0.003 and 0.3 m missed).
+  // REGRESSION GUARDS (measured max 0.0040 rad/s after 20 s, 0.98 m in the gap; targets 0.003
+  // and 0.3 m missed).
   EXPECT_LT(r.gyro_bias_error_max_after, 0.005);
-  EXPECT_LT(r.gap_max_error_m, 1.3);
+  EXPECT_LT(r.gap_max_error_m, 1.2);
 }
 
 // Keyframe odometry (each pose relative to a keyframe kept for up to 5 deg, 0.15 m or 20
 // frames, the same noise per measurement): the clone is kept across updates, and the yaw-axis
-// gyro bias becomes observable to the issue's 0.003 rad/s (measured 0.0005 at 20 s, max
-// 0.0010 after). The chained baseline improves as much, so fused/chained is 0.78 here with
+// gyro bias becomes observable to the issue's 0.003 rad/s (measured 0.0010 at 20 s, max
+// 0.0010 after). The chained baseline improves as much, so fused/chained is 0.79 here with
 // the YAML's IMU noise (docs/fusion.md has the table).
 TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
@@ -124,8 +126,8 @@ TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
   // diverged; now at most a handful are.
   EXPECT_GE(r.counters.updates_accepted, r.measurements - 20);
   EXPECT_LT(r.fused_rmse_m, r.chained_rmse_m);
-  // REGRESSION GUARDS, NOT the targets: ratio 0.69 (target 0.5, missed); gap growth 0.175 m
-  // (max absolute error in the gap 0.44 m, target 0.3 m).
+  // REGRESSION GUARDS, NOT the targets: ratio 0.69 (target 0.5, missed); gap growth 0.19 m
+  // (max absolute error in the gap 0.45 m, target 0.3 m).
   EXPECT_LT(r.fused_rmse_m, 0.8 * r.chained_rmse_m);
   EXPECT_LT(r.gap_error_growth_m, 0.3);
 }

@@ -47,6 +47,9 @@ struct FusionOptions {
   double init_sigma_v_m_s = 0.05;
   double init_sigma_gyro_bias_rad_s = 0.01;
   double init_sigma_accel_bias_m_s2 = 0.1;
+  /// First-estimates Jacobians (StochasticCloningEkf::set_first_estimate_jacobians): keeps the
+  /// yaw about gravity unobservable to the filter; off only to compare (docs/fusion.md).
+  bool first_estimate_jacobians = true;
 
   /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
   static FusionOptions load_yaml(const std::filesystem::path& path);

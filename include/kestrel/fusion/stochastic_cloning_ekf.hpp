@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -92,6 +93,18 @@ class StochasticCloningEkf {
   StochasticCloningEkf(const ImuNoiseDensities& noise, const Eigen::Vector3d& g_world)
       : noise_(noise), g_world_(g_world) {}
 
+  /// First-estimates Jacobians (on by default; Huang, Mourikis & Roumeliotis, ISER 2008; Li &
+  /// Mourikis, "High-precision, consistent EKF-based visual-inertial odometry", IJRR 2013):
+  /// the transition of the first step after an update is evaluated at the estimate the update
+  /// started from, and the measurement Jacobian at the clone's first estimate, so that the
+  /// global translation and the yaw about gravity stay unobservable to the filter, as they are
+  /// to the sensors. Evaluated at the latest estimates instead (off), each update moves that
+  /// yaw direction and the filter gains yaw information that no sensor gave (docs/fusion.md).
+  void set_first_estimate_jacobians(bool on) { first_estimates_ = on; }
+  [[nodiscard]] bool first_estimate_jacobians() const { return first_estimates_; }
+  /// The clone's pose as first estimated (the measurement Jacobian's linearisation point).
+  [[nodiscard]] SE3 clone_first_estimate() const { return SE3(q_clone_first_, p_clone_first_); }
+
   /// Sets the state and the 15x15 covariance of the current state; the clone is set to the
   /// current pose with its covariance (thesis: "at the beginning, we fix p_d = p").
   void initialize(const NominalState& state, const Matrix15d& covariance);
@@ -123,6 +136,13 @@ class StochasticCloningEkf {
                                         double dt_s, const Eigen::Vector3d& g_world);
   /// d(error after the step)/d(error before), 15x15 over the current state.
   static Matrix15d transition(const NominalState& x, const ImuReading& reading, double dt_s);
+  /// The transition with its attitude columns evaluated at a first estimate `fe` of the state
+  /// the step started from (x itself gives transition()): it maps the unobservable directions
+  /// at `fe` onto those at `next` = propagate_nominal(x), Li & Mourikis 2013 eq. 26-28 in our
+  /// body-frame attitude error.
+  static Matrix15d transition_first_estimates(const NominalState& x, const NominalState& fe,
+                                              const NominalState& next, const ImuReading& reading,
+                                              double dt_s, const Eigen::Vector3d& g_world);
   /// Discrete process noise dQ = G (dt cQ) G^T over the current state.
   static Matrix15d process_noise(const ImuNoiseDensities& noise, double dt_s);
   /// h(x) = T_clone_body = T_world_clone^-1 T_world_body (thesis eq. 4.7).
@@ -140,6 +160,12 @@ class StochasticCloningEkf {
   Eigen::Vector3d g_world_{0.0, 0.0, -9.81};
   NominalState x_;
   MatrixXs P_ = MatrixXs::Identity();
+  bool first_estimates_ = true;
+  /// The estimate before the last update, until the next propagation step uses it.
+  std::optional<NominalState> before_update_;
+  /// The clone's pose as first estimated (the Jacobians' linearisation point).
+  Eigen::Vector3d p_clone_first_ = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_clone_first_ = Eigen::Quaterniond::Identity();
 };
 
 /// Quantile of the chi-square distribution with `dof` degrees of freedom (probability in
