@@ -53,9 +53,10 @@ FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
       {"init_sigma_accel_bias_m_s2", &o.init_sigma_accel_bias_m_s2}};
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
-    if (key == "first_estimate_jacobians") {
+    if (key == "first_estimate_jacobians" || key == "reanchor_after_gate") {
       try {
-        o.first_estimate_jacobians = kv.second.as<bool>();
+        (key == "first_estimate_jacobians" ? o.first_estimate_jacobians : o.reanchor_after_gate) =
+            kv.second.as<bool>();
       } catch (const YAML::Exception&) {
         throw InputError(path, key, "must be true or false");
       }
@@ -355,6 +356,7 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
   const TimeNs clone_t = ekf_.state().clone_t_ns;
   bool has_reference = std::llabs(m.t_ref_ns - clone_t) <= kTolerance;
   RelativePoseMeasurement rebased = m;
+  bool reanchor = false;
   if (!has_reference && anchor_ && anchor_->keyframe_t_ns == m.t_ref_ns &&
       std::llabs(anchor_->clone_t_ns - clone_t) <= kTolerance) {
     // T_clone_cur = T_kf_clone^-1 T_kf_cur. Left perturbations in the keyframe frame, exp(e_c)
@@ -386,12 +388,25 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
     switch (r.outcome) {
       case UpdateOutcome::kAccepted:
         ++counters_.updates_accepted;
+        gated_in_a_row_ = 0;
         last_accepted_update_ns_ = m.t_ns;
         sticky_flags_ |= kFlagUpdated;
         break;
       case UpdateOutcome::kRejectedGate:
         ++counters_.updates_gated;
         sticky_flags_ |= kFlagRejected;
+        // Gated twice in a row from a keyframe that is kept: the odometry jumped against it,
+        // and every later measurement from it would carry the same error and be gated too. So
+        // the filter clones now and anchors them on this one, T_clone_cur = T_kf_this^-1
+        // T_kf_cur, as for a keyframe it never cloned: they then measure only the motion since.
+        // A single outlier (the next one accepted) is only rejected: anchoring on it would
+        // carry its error into every later measurement.
+        if (options_.reanchor_after_gate && !m.starts_new_reference && m.t_ref_ns != m.t_ns &&
+            ++gated_in_a_row_ >= 2) {
+          anchor_ = KeyframeAnchor{m.t_ref_ns, m.t_ns, m.T_ref_cur, m.covariance};
+          reanchor = true;
+          gated_in_a_row_ = 0;
+        }
         break;
       case UpdateOutcome::kRejectedInvalid:
         ++counters_.updates_invalid;
@@ -402,8 +417,9 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
   // Re-cloning after each update (thesis, after eq. 4.8) when this frame becomes the
   // reference; a keyframe that is kept keeps its clone. Without a reference the frame is
   // cloned anyway: a measurement starting there is the only one that can follow.
-  if (m.starts_new_reference || !has_reference) ekf_.clone();
+  if (m.starts_new_reference || !has_reference || reanchor) ekf_.clone();
   if (m.starts_new_reference && has_reference) anchor_.reset();  // the clone is the keyframe now
+  if (m.starts_new_reference) gated_in_a_row_ = 0;
   emit(true, out);
 }
 

@@ -320,6 +320,56 @@ TEST(FusionBehaviour, MeasurementsFromAnUnclonedKeyframeAreRebasedOnTheFirstOne)
   EXPECT_LT((out.back().state.v_world - v_world).norm(), 1e-3);
 }
 
+// Keyframe odometry that jumps once against its kept keyframe: from one frame on, every
+// measurement from that keyframe is 5 cm off (sigma 1 mm). The jump is gated twice; the filter
+// then anchors the next ones on the second, so they give the motion since and are accepted, and
+// the estimate is not moved by the jump. Without the re-anchoring every later one is gated. A
+// single outlier (one measurement 5 cm off) is only rejected, and moves nothing either.
+TEST(FusionBehaviour, AGatedKeyframeMeasurementReanchorsTheNextOnes) {
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI / 6, Vector3d::UnitZ()));
+  const Vector3d v_world(0.5, 0.0, 0.0);
+  auto T_world_body = [&](TimeNs t) { return SE3(SO3(q), v_world * ns_to_s(t)); };
+  for (const bool reanchor : {true, false}) {
+    FusionOptions o;
+    o.reanchor_after_gate = reanchor;
+    FusionEngine e{o};
+    NominalState x0;
+    x0.t_ns = 1'000'000'000;
+    x0.p_world = T_world_body(x0.t_ns).translation();
+    x0.q_world_body = q;
+    x0.v_world = v_world;
+    e.initialize(x0);
+    for (TimeNs t = x0.t_ns; t <= 3'000'000'000; t += kPeriod)
+      e.add_imu(still_sample(t, q, Vector3d::Zero()));
+    const TimeNs keyframe_t = x0.t_ns;  // the filter's first clone
+    std::size_t sent = 0;
+    for (TimeNs t = 1'050'000'000; t <= 3'000'000'000; t += 50'000'000) {
+      RelativePoseMeasurement m;
+      m.t_ref_ns = keyframe_t;
+      m.t_ns = t;
+      const bool off = t >= 2'000'000'000 || t == 1'500'000'000;  // a lone outlier, then a jump
+      const SE3 jump(SO3(), Vector3d(0.0, off ? 0.05 : 0.0, 0.0));
+      m.T_ref_cur = jump * T_world_body(keyframe_t).inverse() * T_world_body(t);
+      m.covariance = Vector6d::Constant(1e-6).asDiagonal();
+      m.starts_new_reference = false;
+      e.add_relative_pose(m);
+      ++sent;
+    }
+    const auto out = e.flush(false);
+    const FusionCounters& c = e.counters();
+    ASSERT_FALSE(out.empty());
+    const double error =
+        (out.back().state.p_world - T_world_body(out.back().t_ns).translation()).norm();
+    if (reanchor) {
+      EXPECT_EQ(c.updates_gated, 3u);  // the outlier, and the jump twice
+      EXPECT_EQ(c.updates_accepted, sent - 3);
+      EXPECT_LT(error, 2e-3);
+    } else {
+      EXPECT_EQ(c.updates_gated, 22u);  // the outlier, and every measurement from 2 s to 3 s
+    }
+  }
+}
+
 TEST(FusionBehaviour, ChiSquareGateRejectsAnOutlier) {
   Scenario sc = still_scenario(4.0);
   sc.vo[50].T_ref_cur = SE3(SO3(), Vector3d(0.5, 0, 0));  // a 0.5 m jump, sigma 1 cm

@@ -50,6 +50,11 @@ struct FusionOptions {
   /// First-estimates Jacobians (StochasticCloningEkf::set_first_estimate_jacobians): keeps the
   /// yaw about gravity unobservable to the filter; off only to compare (docs/fusion.md).
   bool first_estimate_jacobians = true;
+  /// Two gated measurements in a row from a keyframe that stays the reference re-anchor the
+  /// following ones from that keyframe on the second (they then measure the motion since), so
+  /// that one odometry jump against a kept keyframe does not get every later measurement from
+  /// it gated; a single outlier is only rejected.
+  bool reanchor_after_gate = true;
 
   /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
   static FusionOptions load_yaml(const std::filesystem::path& path);
@@ -167,6 +172,7 @@ class FusionEngine {
     Matrix6d covariance = Matrix6d::Zero();
   };
   std::optional<KeyframeAnchor> anchor_;
+  int gated_in_a_row_ = 0;  ///< gated measurements from the kept keyframe since the last accepted
 };
 
 /// Static initialisation from still IMU samples: roll and pitch from the mean specific force
