@@ -51,18 +51,21 @@ FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
       {"init_sigma_v_m_s", &o.init_sigma_v_m_s},
       {"init_sigma_gyro_bias_rad_s", &o.init_sigma_gyro_bias_rad_s},
       {"init_sigma_accel_bias_m_s2", &o.init_sigma_accel_bias_m_s2}};
+  const std::vector<std::pair<std::string, bool*>> flags = {
+      {"first_estimate_jacobians", &o.first_estimate_jacobians},
+      {"reanchor_after_gate", &o.reanchor_after_gate}};
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
-    if (key == "first_estimate_jacobians" || key == "reanchor_after_gate") {
+    bool known = false;
+    for (const auto& [name, ptr] : flags) {
+      if (name != key) continue;
+      known = true;
       try {
-        (key == "first_estimate_jacobians" ? o.first_estimate_jacobians : o.reanchor_after_gate) =
-            kv.second.as<bool>();
+        *ptr = kv.second.as<bool>();
       } catch (const YAML::Exception&) {
         throw InputError(path, key, "must be true or false");
       }
-      continue;
     }
-    bool known = false;
     for (const auto& [name, ptr] : fields) {
       if (name != key) continue;
       known = true;
@@ -96,7 +99,8 @@ std::string FusionOptions::describe() const {
     << " g=" << gravity_m_s2 << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
     << "s max_imu_gap=" << max_imu_gap_s << "s reorder=" << reorder_window_s
     << "s static_init=" << static_init_s
-    << "s first_estimates=" << (first_estimate_jacobians ? "on" : "off") << " T_body_cam.t=["
+    << "s first_estimates=" << (first_estimate_jacobians ? "on" : "off")
+    << " reanchor_after_gate=" << (reanchor_after_gate ? "on" : "off") << " T_body_cam.t=["
     << T_body_cam.translation().transpose() << "]";
   return s.str();
 }
@@ -216,6 +220,7 @@ void FusionEngine::initialize(const NominalState& state) {
   processed_ns_ = std::max(processed_ns_, state.t_ns);
   last_accepted_update_ns_ = state.t_ns;
   anchor_.reset();
+  gated_in_a_row_ = 0;
 }
 
 void FusionEngine::add_imu(const io::ImuSample& sample) {

@@ -116,19 +116,18 @@ Matrix15d StochasticCloningEkf::transition(const NominalState& x, const ImuReadi
   return F;
 }
 
-Matrix15d StochasticCloningEkf::transition_first_estimates(const NominalState& x,
-                                                           const NominalState& fe,
-                                                           const NominalState& next,
-                                                           const ImuReading& m, double dt,
-                                                           const Vector3d& g) {
-  // A yaw about gravity z moves the error state along N(x) = [z x p, R^T z, z x v, 0, 0] (and
-  // the clone alike); translation along [I, 0, 0, 0, 0]. The attitude columns are chosen so
-  // that F N(fe) = N(next) (Li & Mourikis 2013, eqs. 26-28, in the body-frame error):
-  //   F_tt = R_next^T R_fe,  F_vt = -[v_next - v_fe - g dt]x R_fe,
-  //   F_pt = -[p_next - p_fe - v_fe dt - g dt^2 / 2]x R_fe.
-  // With fe = x they are transition()'s (R a dt = v_next - v - g dt), so between updates the
-  // two agree; they differ in the first step after an update, whose fe is the estimate before it.
-  Matrix15d F = transition(x, m, dt);
+namespace {
+
+// The attitude columns of the transition at a first estimate fe: a yaw about gravity z moves the
+// error state along N(x) = [z x p, R^T z, z x v, 0, 0] (and the clone alike), translation along
+// [I, 0, 0, 0, 0], and these columns make F N(fe) = N(next) (Li & Mourikis 2013, eqs. 26-28, in
+// the body-frame error):
+//   F_tt = R_next^T R_fe,  F_vt = -[v_next - v_fe - g dt]x R_fe,
+//   F_pt = -[p_next - p_fe - v_fe dt - g dt^2 / 2]x R_fe.
+// With fe = x they are transition()'s (R a dt = v_next - v - g dt), so only the first step after
+// an update, whose fe is the estimate before it, needs them.
+void set_first_estimate_columns(Matrix15d& F, const NominalState& fe, const NominalState& next,
+                                double dt, const Vector3d& g) {
   const Matrix3d R_fe = fe.q_world_body.toRotationMatrix();
   const Matrix3d R_next = next.q_world_body.toRotationMatrix();
   const Vector3d dv = next.v_world - fe.v_world - g * dt;
@@ -136,6 +135,17 @@ Matrix15d StochasticCloningEkf::transition_first_estimates(const NominalState& x
   F.block<3, 3>(idx::kTheta, idx::kTheta) = R_next.transpose() * R_fe;
   F.block<3, 3>(idx::kV, idx::kTheta) = -SO3::hat(dv) * R_fe;
   F.block<3, 3>(idx::kP, idx::kTheta) = -SO3::hat(dp) * R_fe;
+}
+
+}  // namespace
+
+Matrix15d StochasticCloningEkf::transition_first_estimates(const NominalState& x,
+                                                           const NominalState& fe,
+                                                           const NominalState& next,
+                                                           const ImuReading& m, double dt,
+                                                           const Vector3d& g) {
+  Matrix15d F = transition(x, m, dt);
+  set_first_estimate_columns(F, fe, next, dt, g);
   return F;
 }
 
@@ -157,13 +167,13 @@ void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
   if (!m.gyro_rad_s.allFinite() || !m.accel_m_s2.allFinite()) {
     throw std::invalid_argument("StochasticCloningEkf::propagate: non-finite IMU reading");
   }
-  const NominalState before = x_;
+  Matrix15d F = transition(x_, m, dt);
   x_ = propagate_nominal(x_, m, dt, g_world_);
   x_.t_ns += s_to_ns(dt);
-  const Matrix15d F =
-      first_estimates_
-          ? transition_first_estimates(before, before_update_.value_or(before), x_, m, dt, g_world_)
-          : transition(before, m, dt);
+  // First estimates: only the first step after an update differs (transition_first_estimates).
+  if (first_estimates_ && before_update_) {
+    set_first_estimate_columns(F, *before_update_, x_, dt, g_world_);
+  }
   before_update_.reset();
   // P <- F P F^T + dQ on the current block; the clone block is unchanged and the cross
   // block becomes F P_xc (the growing correlation the thesis describes after eq. 4.6).

@@ -278,34 +278,50 @@ TEST(FusionBehaviour, KeyframeMeasurementsKeepTheCloneUntilTheReferenceChanges) 
   EXPECT_LT(e.filter().state().p_world.norm(), 0.01);
 }
 
+// A body yawed by 30 deg gliding at 0.5 m/s along x (constant velocity: the IMU reads gravity
+// only); the filter starts on its true state at 1 s, with IMU samples to 3 s.
+struct YawedGlide {
+  static constexpr TimeNs kStart = 1'000'000'000, kEnd = 3'000'000'000;
+  Eigen::Quaterniond q{Eigen::AngleAxisd(M_PI / 6, Vector3d::UnitZ())};
+  Vector3d v_world{0.5, 0.0, 0.0};
+
+  [[nodiscard]] SE3 T_world_body(TimeNs t) const { return SE3(SO3(q), v_world * ns_to_s(t)); }
+  void start(FusionEngine& e) const {
+    NominalState x0;
+    x0.t_ns = kStart;
+    x0.p_world = T_world_body(kStart).translation();
+    x0.q_world_body = q;
+    x0.v_world = v_world;
+    e.initialize(x0);
+    for (TimeNs t = kStart; t <= kEnd; t += kPeriod)
+      e.add_imu(still_sample(t, q, Vector3d::Zero()));
+  }
+  /// The true motion from a kept keyframe (sigma 1 mm, 1 mrad), `error` applied on the left.
+  [[nodiscard]] RelativePoseMeasurement from_keyframe(TimeNs keyframe_t, TimeNs t,
+                                                      const SE3& error = SE3()) const {
+    RelativePoseMeasurement m;
+    m.t_ref_ns = keyframe_t;
+    m.t_ns = t;
+    m.T_ref_cur = error * T_world_body(keyframe_t).inverse() * T_world_body(t);
+    m.covariance = Vector6d::Constant(1e-6).asDiagonal();
+    m.starts_new_reference = false;
+    return m;
+  }
+};
+
 // A keyframe taken before the filter started (a tracker that ran before the IMU was ready):
 // the first measurement from it is only cloned, and the next ones from the same keyframe are
 // re-based on that clone, T_clone_cur = T_kf_clone^-1 T_kf_cur. The body moves at 0.5 m/s
 // along x and is yawed by 30 deg, so a measurement taken as clone-relative without the
 // re-basing would be 0.5 m off and gated.
 TEST(FusionBehaviour, MeasurementsFromAnUnclonedKeyframeAreRebasedOnTheFirstOne) {
-  const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI / 6, Vector3d::UnitZ()));
-  const Vector3d v_world(0.5, 0.0, 0.0);
-  auto T_world_body = [&](TimeNs t) { return SE3(SO3(q), v_world * ns_to_s(t)); };
+  const YawedGlide glide;
   FusionEngine e{FusionOptions{}};
-  NominalState x0;
-  x0.t_ns = 1'000'000'000;
-  x0.p_world = T_world_body(x0.t_ns).translation();
-  x0.q_world_body = q;
-  x0.v_world = v_world;
-  e.initialize(x0);
-  for (TimeNs t = x0.t_ns; t <= 3'000'000'000; t += kPeriod)
-    e.add_imu(still_sample(t, q, Vector3d::Zero()));
+  glide.start(e);
   const TimeNs keyframe_t = 0;  // before the filter's start: never cloned
   std::size_t sent = 0;
-  for (TimeNs t = 1'050'000'000; t <= 3'000'000'000; t += 50'000'000) {
-    RelativePoseMeasurement m;
-    m.t_ref_ns = keyframe_t;
-    m.t_ns = t;
-    m.T_ref_cur = T_world_body(keyframe_t).inverse() * T_world_body(t);
-    m.covariance = Vector6d::Constant(1e-6).asDiagonal();
-    m.starts_new_reference = false;
-    e.add_relative_pose(m);
+  for (TimeNs t = 1'050'000'000; t <= YawedGlide::kEnd; t += 50'000'000) {
+    e.add_relative_pose(glide.from_keyframe(keyframe_t, t));
     ++sent;
   }
   const auto out = e.flush(false);
@@ -315,9 +331,9 @@ TEST(FusionBehaviour, MeasurementsFromAnUnclonedKeyframeAreRebasedOnTheFirstOne)
   EXPECT_EQ(c.updates_gated, 0u);
   EXPECT_EQ(e.filter().state().clone_t_ns, 1'050'000'000);
   ASSERT_FALSE(out.empty());
-  const SE3 truth = T_world_body(out.back().t_ns);
+  const SE3 truth = glide.T_world_body(out.back().t_ns);
   EXPECT_LT((out.back().state.p_world - truth.translation()).norm(), 1e-3);
-  EXPECT_LT((out.back().state.v_world - v_world).norm(), 1e-3);
+  EXPECT_LT((out.back().state.v_world - glide.v_world).norm(), 1e-3);
 }
 
 // Keyframe odometry that jumps once against its kept keyframe: from one frame on, every
@@ -326,40 +342,25 @@ TEST(FusionBehaviour, MeasurementsFromAnUnclonedKeyframeAreRebasedOnTheFirstOne)
 // the estimate is not moved by the jump. Without the re-anchoring every later one is gated. A
 // single outlier (one measurement 5 cm off) is only rejected, and moves nothing either.
 TEST(FusionBehaviour, AGatedKeyframeMeasurementReanchorsTheNextOnes) {
-  const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI / 6, Vector3d::UnitZ()));
-  const Vector3d v_world(0.5, 0.0, 0.0);
-  auto T_world_body = [&](TimeNs t) { return SE3(SO3(q), v_world * ns_to_s(t)); };
+  const YawedGlide glide;
   for (const bool reanchor : {true, false}) {
     FusionOptions o;
     o.reanchor_after_gate = reanchor;
     FusionEngine e{o};
-    NominalState x0;
-    x0.t_ns = 1'000'000'000;
-    x0.p_world = T_world_body(x0.t_ns).translation();
-    x0.q_world_body = q;
-    x0.v_world = v_world;
-    e.initialize(x0);
-    for (TimeNs t = x0.t_ns; t <= 3'000'000'000; t += kPeriod)
-      e.add_imu(still_sample(t, q, Vector3d::Zero()));
-    const TimeNs keyframe_t = x0.t_ns;  // the filter's first clone
+    glide.start(e);
+    const TimeNs keyframe_t = YawedGlide::kStart;  // the filter's first clone
     std::size_t sent = 0;
-    for (TimeNs t = 1'050'000'000; t <= 3'000'000'000; t += 50'000'000) {
-      RelativePoseMeasurement m;
-      m.t_ref_ns = keyframe_t;
-      m.t_ns = t;
+    for (TimeNs t = 1'050'000'000; t <= YawedGlide::kEnd; t += 50'000'000) {
       const bool off = t >= 2'000'000'000 || t == 1'500'000'000;  // a lone outlier, then a jump
-      const SE3 jump(SO3(), Vector3d(0.0, off ? 0.05 : 0.0, 0.0));
-      m.T_ref_cur = jump * T_world_body(keyframe_t).inverse() * T_world_body(t);
-      m.covariance = Vector6d::Constant(1e-6).asDiagonal();
-      m.starts_new_reference = false;
-      e.add_relative_pose(m);
+      e.add_relative_pose(
+          glide.from_keyframe(keyframe_t, t, SE3(SO3(), Vector3d(0.0, off ? 0.05 : 0.0, 0.0))));
       ++sent;
     }
     const auto out = e.flush(false);
     const FusionCounters& c = e.counters();
     ASSERT_FALSE(out.empty());
     const double error =
-        (out.back().state.p_world - T_world_body(out.back().t_ns).translation()).norm();
+        (out.back().state.p_world - glide.T_world_body(out.back().t_ns).translation()).norm();
     if (reanchor) {
       EXPECT_EQ(c.updates_gated, 3u);  // the outlier, and the jump twice
       EXPECT_EQ(c.updates_accepted, sent - 3);
