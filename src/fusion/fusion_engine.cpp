@@ -162,7 +162,8 @@ std::string FusionCounters::describe() const {
     << " imu_invalid=" << imu_dropped_invalid << " imu_gaps=" << imu_gaps
     << " updates=" << updates_accepted << " gated=" << updates_gated
     << " invalid=" << updates_invalid << " no_reference=" << updates_no_reference
-    << " vo_late=" << measurements_dropped_late << " vo_before_init=" << measurements_before_init;
+    << " vo_late=" << measurements_dropped_late << " vo_before_init=" << measurements_before_init
+    << " mean_nis=" << mean_nis();
   return s.str();
 }
 
@@ -393,6 +394,7 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
     switch (r.outcome) {
       case UpdateOutcome::kAccepted:
         ++counters_.updates_accepted;
+        counters_.nis_sum_accepted += r.mahalanobis_sq;
         gated_in_a_row_ = 0;
         last_accepted_update_ns_ = m.t_ns;
         sticky_flags_ |= kFlagUpdated;

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <cmath>
 #include <fstream>
+#include <iostream>
 #include <limits>
 #include <random>
 
@@ -104,6 +105,12 @@ TEST(FusionBehaviour, JosephUpdateKeepsCovarianceSymmetricPositiveDefiniteForAnH
   EXPECT_GT(min_eig, 0.0);
   EXPECT_EQ(engine.counters().updates_accepted + engine.counters().updates_gated, run.odometry.size());
   EXPECT_LT(engine.counters().updates_gated, run.odometry.size() / 100);
+  // The simulator's noise is the filter's: the normalised innovations average their 6 dof (the
+  // gate trims the top ~1 %; the standard error of the mean is sqrt(12 / N) ~ 0.02 here).
+  EXPECT_GT(engine.counters().mean_nis(), 5.5);
+  EXPECT_LT(engine.counters().mean_nis(), 6.5);
+  std::cout << "hour of flight: mean NIS " << engine.counters().mean_nis() << " over "
+            << engine.counters().updates_accepted << " updates\n";
   // The full 21x21 after a propagation step is positive-definite too.
   StochasticCloningEkf ekf = engine.filter();
   ekf.propagate({Vector3d::Zero(), Vector3d(0, 0, 9.81)}, 0.02);

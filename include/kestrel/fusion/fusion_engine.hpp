@@ -111,6 +111,12 @@ struct FusionCounters {
   std::size_t updates_no_reference = 0;   ///< reference time was not the clone's
   std::size_t measurements_dropped_late = 0;
   std::size_t measurements_before_init = 0;
+  /// Sum of r^T S^-1 r over the accepted updates: its mean (mean_nis()) is 6 for a consistent
+  /// filter, above it when the filter trusts the IMU or the odometry more than they deserve.
+  double nis_sum_accepted = 0.0;
+  [[nodiscard]] double mean_nis() const {
+    return updates_accepted > 0 ? nis_sum_accepted / static_cast<double>(updates_accepted) : 0.0;
+  }
   [[nodiscard]] std::string describe() const;
 };
 
