@@ -408,4 +408,64 @@ std::string format_result(const EurocExperimentResult& r) {
   return s.str();
 }
 
+namespace {
+
+EurocSeedSummary::Spread spread(std::vector<double> v, double target, bool strict) {
+  EurocSeedSummary::Spread out;
+  if (v.empty()) return out;
+  for (const double x : v) out.meeting += (strict ? x < target : x <= target) ? 1 : 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  out.median = n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  out.min = v.front();
+  out.max = v.back();
+  return out;
+}
+
+}  // namespace
+
+EurocSeedSummary summarise_draws(const std::vector<EurocExperimentResult>& results) {
+  if (results.empty()) throw std::invalid_argument("summarise_draws: no results");
+  EurocSeedSummary s;
+  s.name = results.front().name;
+  s.draws = static_cast<int>(results.size());
+  std::vector<double> ratio, at_check, max_after, gap;
+  for (const auto& r : results) {
+    ratio.push_back(r.fused_rmse_m / r.chained_rmse_m);
+    gap.push_back(r.gap_max_error_m);
+    s.mean_fused_m += r.fused_rmse_m / static_cast<double>(results.size());
+    s.mean_chained_m += r.chained_rmse_m / static_cast<double>(results.size());
+    if (r.gyro_bias_checked) {
+      at_check.push_back(r.gyro_bias_error_at_check);
+      max_after.push_back(r.gyro_bias_error_max_after);
+    }
+  }
+  s.bias_draws = static_cast<int>(at_check.size());
+  s.ratio = spread(ratio, 0.5, false);
+  s.bias_at_check = spread(at_check, 0.003, false);
+  s.bias_max_after = spread(max_after, 0.003, false);
+  s.gap_max_error = spread(gap, 0.3, true);
+  return s;
+}
+
+std::string format_summary(const EurocSeedSummary& s) {
+  std::ostringstream o;
+  o.setf(std::ios::fixed);
+  o.precision(4);
+  auto line = [&](const char* what, const EurocSeedSummary::Spread& x, int of, const char* target) {
+    o << "  " << what << ": median " << x.median << ", min " << x.min << ", max " << x.max
+      << "; target " << target << " met in " << x.meeting << " of " << of << "\n";
+  };
+  o << s.name << ", " << s.draws << " noise draws (seeds):\n";
+  line("fused/chained ratio", s.ratio, s.draws, "<= 0.5");
+  o << "    (mean fused " << s.mean_fused_m << " m / mean chained " << s.mean_chained_m
+    << " m = " << s.mean_fused_m / s.mean_chained_m << ")\n";
+  if (s.bias_draws > 0) {
+    line("gyro bias error at 20 s [rad/s]", s.bias_at_check, s.bias_draws, "<= 0.003");
+    line("gyro bias error, max after 20 s", s.bias_max_after, s.bias_draws, "<= 0.003");
+  }
+  line("max position error in the 2 s gap [m]", s.gap_max_error, s.draws, "< 0.3");
+  return o.str();
+}
+
 }  // namespace kestrel::fusion

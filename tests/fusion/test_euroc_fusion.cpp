@@ -10,6 +10,31 @@
 namespace kestrel::fusion {
 namespace {
 
+TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
+  std::vector<EurocExperimentResult> draws(3);
+  const double fused[] = {0.1, 0.3, 0.6}, gap[] = {0.2, 0.3, 0.5}, bias[] = {0.001, 0.003, 0.004};
+  for (std::size_t i = 0; i < 3; ++i) {
+    draws[i].fused_rmse_m = fused[i];
+    draws[i].chained_rmse_m = 1.0;
+    draws[i].gap_max_error_m = gap[i];
+    draws[i].gyro_bias_checked = i != 2;  // the last draw has no bias reference
+    draws[i].gyro_bias_error_at_check = bias[i];
+    draws[i].gyro_bias_error_max_after = bias[i];
+  }
+  const EurocSeedSummary s = summarise_draws(draws);
+  EXPECT_EQ(s.draws, 3);
+  EXPECT_DOUBLE_EQ(s.ratio.median, 0.3);
+  EXPECT_DOUBLE_EQ(s.ratio.min, 0.1);
+  EXPECT_DOUBLE_EQ(s.ratio.max, 0.6);
+  EXPECT_EQ(s.ratio.meeting, 2);          // <= 0.5
+  EXPECT_EQ(s.gap_max_error.meeting, 1);  // < 0.3: 0.3 itself does not meet it
+  EXPECT_EQ(s.bias_draws, 2);
+  EXPECT_EQ(s.bias_at_check.meeting, 2);  // <= 0.003
+  EXPECT_DOUBLE_EQ(s.bias_at_check.median, 0.002);
+  EXPECT_NEAR(s.mean_fused_m, 1.0 / 3.0, 1e-12);
+  EXPECT_THROW(summarise_draws({}), std::invalid_argument);
+}
+
 TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
   FusionOptions o;
@@ -17,12 +42,11 @@ TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
   o.init_sigma_accel_bias_m_s2 = 0.2;
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, {});
   std::cout << format_result(r);
-  // Issue target, met (0.268 vs 0.779 m; 0.327 before the first-estimates Jacobians).
-  EXPECT_LE(r.fused_rmse_m, 0.5 * r.chained_rmse_m);
-  // The gyro-bias error at 20 s meets the issue's 0.003 rad/s (0.0026; 0.0058 before the
-  // first-estimates Jacobians), but not on every later sample (max 0.0045: a REGRESSION GUARD);
-  // the 2 s gap's 1.07 m misses the 0.3 m target (guard): frame-to-frame 0.5 deg rotations pin
-  // the yaw-axis bias only to ~0.17/sqrt(n) rad/s (docs/fusion.md).
+  // REGRESSION GUARDS at seed 1, a favourable noise draw: ratio 0.34 (0.268 vs 0.779 m), gyro
+  // bias 0.0026 rad/s at 20 s but 0.0045 later, gap 1.07 m. Over 20 draws frame to frame with
+  // the YAML noise meets the ratio in 4, the bias at 20 s in 3, on every later sample in none
+  // (docs/fusion.md, FusionEuroc.KeyframeOdometryOverNoiseDraws): the issue's targets are
+  // NOT met by this configuration.
   EXPECT_LE(r.gyro_bias_error_at_check, 0.003);
   EXPECT_LT(r.gyro_bias_error_max_after, 0.006);
   EXPECT_LT(r.gap_max_error_m, 1.3);
@@ -77,6 +101,36 @@ TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
   EXPECT_LT(d.truth, 0.15);
   EXPECT_GT(d.with_velocity, d.truth);
   EXPECT_GT(d.with_attitude, d.truth);
+}
+
+// Over noise draws (each seed one draw of the 1 cm / 0.5 deg measurement noise), keyframe
+// odometry with the IMU noise at 10x the YAML's: the ratio of the mean RMSEs meets the issue's
+// 0.5 on both sequences (measured over seeds 1-8: V1_02 0.364, V1_01 0.477) and the bias target
+// holds in every draw; the V1_02 gap does not (3 of these 8; docs/fusion.md: 11 of 20).
+TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/imu0/data.csv");
+  FusionOptions o;
+  o.init_sigma_gyro_bias_rad_s = 0.1;
+  o.init_sigma_accel_bias_m_s2 = 0.2;
+  EurocExperimentOptions eo;
+  eo.vo_keyframes = true;
+  eo.imu_noise_scale = 10.0;
+  std::vector<EurocExperimentResult> v1_02, v1_01;
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    eo.seed = seed;
+    v1_02.push_back(
+        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
+    v1_01.push_back(run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, eo));
+  }
+  const EurocSeedSummary a = summarise_draws(v1_02), b = summarise_draws(v1_01);
+  std::cout << format_summary(a) << format_summary(b);
+  EXPECT_LE(a.mean_fused_m, 0.5 * a.mean_chained_m);  // issue target, on the mean
+  EXPECT_LE(b.mean_fused_m, 0.5 * b.mean_chained_m);  // issue target, on the mean
+  EXPECT_GE(a.bias_max_after.meeting, 7);             // of 8 (measured 8)
+  EXPECT_GE(b.gap_max_error.meeting, 8);              // of 8 (measured 8)
+  // REGRESSION GUARD, NOT the target: the V1_02 gap holds in 3 of these 8 draws.
+  EXPECT_GE(a.gap_max_error.meeting, 2);
 }
 
 // The evidence for reading groundtruth_cam0's quaternion as R_cam_world: the relative

@@ -109,4 +109,25 @@ EurocExperimentResult run_v1_01(const std::filesystem::path& sequence,
 
 std::string format_result(const EurocExperimentResult& r);
 
+/// One sequence's experiment over several noise draws (seeds): every figure of a single run is
+/// one draw of the measurement noise, and the targets' figures vary with it (docs/fusion.md).
+struct EurocSeedSummary {
+  struct Spread {
+    double median = 0.0, min = 0.0, max = 0.0;
+    int meeting = 0;  ///< draws meeting the issue's target
+  };
+  std::string name;
+  int draws = 0;
+  Spread ratio;           ///< fused / chained position RMSE, target <= 0.5
+  Spread bias_at_check;   ///< target <= 0.003 rad/s (draws without a bias reference: none)
+  Spread bias_max_after;  ///< target <= 0.003 rad/s
+  Spread gap_max_error;   ///< target < 0.3 m
+  int bias_draws = 0;     ///< draws with a bias reference
+  double mean_fused_m = 0.0, mean_chained_m = 0.0;  ///< means over the draws
+};
+
+/// Summarises results of one sequence (non-empty; the same experiment, different seeds).
+EurocSeedSummary summarise_draws(const std::vector<EurocExperimentResult>& results);
+std::string format_summary(const EurocSeedSummary& s);
+
 }  // namespace kestrel::fusion
