@@ -10,6 +10,14 @@
 namespace kestrel::fusion {
 namespace {
 
+// The real IMU starts with a large gyro bias and the filter at zero bias (fuse-eval's prior).
+FusionOptions wide_bias_prior() {
+  FusionOptions o;
+  o.init_sigma_gyro_bias_rad_s = 0.1;
+  o.init_sigma_accel_bias_m_s2 = 0.2;
+  return o;
+}
+
 TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
   std::vector<EurocExperimentResult> draws(3);
   const double fused[] = {0.1, 0.3, 0.6}, gap[] = {0.2, 0.3, 0.5}, bias[] = {0.001, 0.003, 0.004};
@@ -37,9 +45,7 @@ TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
 
 TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  FusionOptions o;
-  o.init_sigma_gyro_bias_rad_s = 0.1;
-  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const FusionOptions o = wide_bias_prior();
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, {});
   std::cout << format_result(r);
   // REGRESSION GUARDS at seed 1, a favourable noise draw: ratio 0.34 (0.268 vs 0.779 m), gyro
@@ -58,9 +64,7 @@ TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
 
 TEST(FusionEuroc, V1_02StaticStartBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  FusionOptions o;
-  o.init_sigma_gyro_bias_rad_s = 0.1;
-  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.static_gyro_bias_init = true;  // gyro bias from the still IMU before the first pose
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
@@ -79,9 +83,7 @@ TEST(FusionEuroc, V1_02StaticStartBias) {
 // the YAML's IMU noise (docs/fusion.md has the table).
 TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  FusionOptions o;
-  o.init_sigma_gyro_bias_rad_s = 0.1;
-  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
@@ -110,9 +112,7 @@ TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
 TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/imu0/data.csv");
-  FusionOptions o;
-  o.init_sigma_gyro_bias_rad_s = 0.1;
-  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
   eo.imu_noise_scale = 10.0;
@@ -180,9 +180,7 @@ TEST(FusionEuroc, V1_01Cam0QuaternionIsTheInverseOrientation) {
 
 TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/groundtruth_cam0/data.csv");
-  FusionOptions o;
-  o.init_sigma_gyro_bias_rad_s = 0.1;
-  o.init_sigma_accel_bias_m_s2 = 0.2;
+  const FusionOptions o = wide_bias_prior();
   const auto r = run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, {});
   std::cout << format_result(r);
   // Before the fix (q read as R_world_cam) 2867 of 2870 updates were gated and the filter
