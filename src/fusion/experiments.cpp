@@ -8,6 +8,7 @@
 #include <numbers>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/camera_io.hpp"
