@@ -212,14 +212,11 @@ FrameRotationFit fit_frame_rotation(const Trajectory& gt, const Trajectory& est,
     return (D_est.inverse() * R.inverse() * D_gt * R).log();
   };
   FrameRotationFit fit;
-  double cost = 0.0;
   for (int it = 0; it < 20 && !motions.empty(); ++it) {
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    cost = 0.0;
     for (const auto& [D_est, D_gt] : motions) {
       const Eigen::Vector3d r = residual(D_est, D_gt, fit.R);
-      cost += r.squaredNorm();
       Eigen::Matrix3d J;
       for (int a = 0; a < 3; ++a) {
         Eigen::Vector3d h = Eigen::Vector3d::Zero();

@@ -7,6 +7,7 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/yaml_file.hpp"
@@ -54,28 +55,20 @@ FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
   const std::vector<std::pair<std::string, bool*>> flags = {
       {"first_estimate_jacobians", &o.first_estimate_jacobians},
       {"reanchor_after_gate", &o.reanchor_after_gate}};
+  // The key's entry of one table, read with the project's typed YAML conversion.
+  auto read = [&path](const auto& table, const std::string& key, const YAML::Node& value) {
+    for (const auto& [name, ptr] : table) {
+      if (name != key) continue;
+      *ptr = io::yaml_as<std::remove_pointer_t<std::decay_t<decltype(ptr)>>>(value, path, key);
+      return true;
+    }
+    return false;
+  };
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
-    bool known = false;
-    for (const auto& [name, ptr] : flags) {
-      if (name != key) continue;
-      known = true;
-      try {
-        *ptr = kv.second.as<bool>();
-      } catch (const YAML::Exception&) {
-        throw InputError(path, key, "must be true or false");
-      }
+    if (!read(fields, key, kv.second) && !read(flags, key, kv.second)) {
+      throw InputError(path, key, "unknown fusion option");
     }
-    for (const auto& [name, ptr] : fields) {
-      if (name != key) continue;
-      known = true;
-      try {
-        *ptr = kv.second.as<double>();
-      } catch (const YAML::Exception&) {
-        throw InputError(path, key, "must be a number");
-      }
-    }
-    if (!known) throw InputError(path, key, "unknown fusion option");
   }
   try {
     o.validate();
