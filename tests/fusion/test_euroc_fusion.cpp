@@ -133,6 +133,44 @@ TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
   EXPECT_GE(a.gap_max_error.meeting, 2);
 }
 
+// The control experiment (--synthetic-imu): the same trajectories, measurements and noise
+// draws, the real IMU replaced by one synthesised from the ground truth exactly as
+// imu0/sensor.yaml models it, the filter with the YAML's noise (1x). With the IMU it models the
+// filter is consistent (NIS ~6) and the V1_02 gap is met in most draws (measured 7 of 8,
+// median 0.19 m) where the real IMU at the same settings meets it in none (median 0.62 m): the
+// real IMU's unmodelled in-flight errors, not the filter, cost the gap (docs/fusion.md). It
+// also shows the targets are not met in EVERY draw even then (1 of 8 gaps above 0.3 m).
+TEST(FusionEuroc, SyntheticImuControlExperiment) {
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
+  const FusionOptions o = wide_bias_prior();
+  EurocExperimentOptions eo;
+  eo.vo_keyframes = true;
+  std::vector<EurocExperimentResult> synthetic, real;
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    eo.seed = seed;
+    eo.synthetic_imu = true;
+    synthetic.push_back(
+        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
+    eo.synthetic_imu = false;
+    real.push_back(
+        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
+  }
+  const EurocSeedSummary s = summarise_draws(synthetic), r = summarise_draws(real);
+  std::cout << "synthetic IMU: " << format_summary(s) << "real IMU: " << format_summary(r);
+  const auto& d = synthetic.front().gap_decomposition;
+  ASSERT_TRUE(d.measured);
+  EXPECT_LT(d.truth, 0.03);  // dead reckoning from the truth (the real IMU: 0.088 m)
+  EXPECT_NEAR(d.filter, synthetic.front().gap_max_error_m, 0.01);
+  for (const auto& x : synthetic) {
+    EXPECT_GT(x.counters.mean_nis(), 5.5);  // 6 for a consistent filter (measured 6.2)
+    EXPECT_LT(x.counters.mean_nis(), 7.0);
+  }
+  EXPECT_EQ(s.bias_max_after.meeting, 8);
+  EXPECT_LT(s.gap_max_error.median, 0.5 * r.gap_max_error.median);
+  EXPECT_GE(s.gap_max_error.meeting, 6);  // regression guard (measured 7 of 8)
+  EXPECT_EQ(r.gap_max_error.meeting, 0);  // the real IMU at 1x (measured 0 of 20)
+}
+
 // The evidence for reading groundtruth_cam0's quaternion as R_cam_world: the relative
 // rotations, moved to the body with T_BS, agree with the integrated gyro only when inverted.
 TEST(FusionEuroc, V1_01Cam0QuaternionIsTheInverseOrientation) {

@@ -36,6 +36,12 @@ struct EurocExperimentOptions {
   /// pass the still test, with this prior sigma; otherwise zero bias, prior from FusionOptions.
   bool static_gyro_bias_init = false;
   double static_gyro_bias_sigma_rad_s = 0.01;
+  /// Control experiment: replace the real IMU by one synthesised from the ground truth at the
+  /// real samples' time stamps, exactly as imu0/sensor.yaml models it (its densities, before the
+  /// scales above; biases starting at the ground truth's, zero where it has none, and walking)
+  /// (ground_truth_imu.hpp). The odometry noise is drawn as with the real IMU (the frames start
+  /// one ground-truth sample later: the synthetic IMU begins at the first one).
+  bool synthetic_imu = false;
 };
 
 /// Ground truth pose (body) with optional velocity and gyro bias at one time.
