@@ -137,7 +137,7 @@ TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
 // draws, the real IMU replaced by one synthesised from the ground truth exactly as
 // imu0/sensor.yaml models it, the filter with the YAML's noise (1x). With the IMU it models the
 // filter is consistent (NIS ~6) and the V1_02 gap is met in most draws (measured 7 of 8,
-// median 0.19 m) where the real IMU at the same settings meets it in none (median 0.62 m): the
+// median 0.19 m) where the real IMU at the same settings meets it in none (median 0.66 m): the
 // real IMU's unmodelled in-flight errors, not the filter, cost the gap (docs/fusion.md). It
 // also shows the targets are not met in EVERY draw even then (1 of 8 gaps above 0.3 m).
 TEST(FusionEuroc, SyntheticImuControlExperiment) {
