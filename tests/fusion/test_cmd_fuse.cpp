@@ -250,5 +250,25 @@ TEST_F(CmdFuse, FuseEvalMovesTheGapAndRejectsANegativeStart) {
   EXPECT_NE(gap_line(at6.out), gap_line(at15.out));
 }
 
+// The control experiment is labelled as such and reaches the experiment: the bias reference
+// becomes the synthetic IMU's own, and V1_01 (no still start) gets one.
+TEST_F(CmdFuse, FuseEvalSyntheticImuIsLabelledAsAControlExperiment) {
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth");
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1");
+  const std::string data = quoted(test::shared_data_dir().string());
+  const RunResult r = run("fuse-eval --skip-sim --vo-keyframes --synthetic-imu --data " + data);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("CONTROL EXPERIMENT"), std::string::npos) << r.out;
+  std::size_t n = 0;
+  for (auto at = r.out.find("the synthetic IMU's own"); at != std::string::npos;
+       at = r.out.find("the synthetic IMU's own", at + 1)) {
+    ++n;
+  }
+  EXPECT_EQ(n, 2u) << r.out;  // V1_02 and V1_01
+  const RunResult real = run("fuse-eval --skip-sim --vo-keyframes --data " + data);
+  ASSERT_EQ(real.exit_code, 0) << real.err;
+  EXPECT_EQ(real.out.find("CONTROL EXPERIMENT"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace kestrel::fusion
