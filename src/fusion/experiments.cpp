@@ -75,6 +75,57 @@ double dead_reckoning_max_error(NominalState x, TimeNs t_end, const std::vector<
   return max_error;
 }
 
+// The IMU against the ground truth over consecutive windows of window_s (see ImuConsistency).
+EurocExperimentResult::ImuConsistency imu_consistency(const std::vector<io::ImuSample>& imu,
+                                                      const std::vector<GroundTruthSample>& gt,
+                                                      const ImuNoiseDensities& yaml,
+                                                      const Vector3d& g_world, double window_s) {
+  EurocExperimentResult::ImuConsistency c;
+  const GroundTruthSpline spline(gt);
+  const TimeNs window = s_to_ns(window_s);
+  double se_a = 0.0, se_g = 0.0;
+  std::size_t k = 0;
+  for (TimeNs t0 = spline.t_begin(); t0 + window <= spline.t_end(); t0 += window) {
+    const TimeNs t1 = t0 + window;
+    while (k < imu.size() && imu[k].t_ns < t0) ++k;
+    if (k + 1 >= imu.size() || imu[k + 1].t_ns > t1) break;
+    // The biases of the ground truth sample nearest the window's start (zero without them).
+    const auto it = std::lower_bound(
+        gt.begin(), gt.end(), t0, [](const GroundTruthSample& g, TimeNs t) { return g.t_ns < t; });
+    const GroundTruthSample& ref = it == gt.end() ? gt.back() : *it;
+    const Vector3d bg = ref.has_bias ? ref.gyro_bias : Vector3d::Zero();
+    const Vector3d ba = ref.has_bias ? ref.accel_bias : Vector3d::Zero();
+    SO3 R = spline.orientation(imu[k].t_ns);
+    Vector3d dv = Vector3d::Zero();
+    std::size_t j = k;
+    for (; j + 1 < imu.size() && imu[j + 1].t_ns <= t1; ++j) {
+      const double dt = ns_to_s(imu[j + 1].t_ns - imu[j].t_ns);
+      const Vector3d w = 0.5 * (imu[j].gyro_rad_s + imu[j + 1].gyro_rad_s) - bg;
+      const Vector3d a = 0.5 * (imu[j].accel_m_s2 + imu[j + 1].accel_m_s2) - ba;
+      // The specific force rotated by the ground truth's own midpoint attitude, so that only
+      // the accelerometer is compared here (the gyro separately below).
+      const SO3 R_mid = spline.orientation(imu[j].t_ns + (imu[j + 1].t_ns - imu[j].t_ns) / 2);
+      dv += (R_mid * a + g_world) * dt;
+      R = R * SO3::exp(w * dt);
+    }
+    const double span = ns_to_s(imu[j].t_ns - imu[k].t_ns);
+    if (span < 0.5 * window_s) break;
+    const Vector3d ea = (dv - (spline.velocity(imu[j].t_ns) - spline.velocity(imu[k].t_ns))) / span;
+    const Vector3d eg = (spline.orientation(imu[j].t_ns).inverse() * R).log() / span;
+    se_a += ea.squaredNorm();
+    se_g += eg.squaredNorm();
+    ++c.windows;
+    k = j;
+  }
+  if (c.windows > 0) {
+    c.accel_rms_m_s2 = std::sqrt(se_a / c.windows);
+    c.gyro_rms_rad_s = std::sqrt(se_g / c.windows);
+  }
+  c.accel_yaml_m_s2 = std::sqrt(3.0) * yaml.accel_noise / std::sqrt(window_s);
+  c.gyro_yaml_rad_s = std::sqrt(3.0) * yaml.gyro_noise / std::sqrt(window_s);
+  return c;
+}
+
 }  // namespace
 
 EurocExperimentResult run_euroc_experiment(const std::string& name,
@@ -103,6 +154,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   }
   const std::vector<io::ImuSample>& imu = opt.synthetic_imu ? synthetic : real_imu;
   const std::vector<GroundTruthSample>& gt = opt.synthetic_imu ? synthetic_gt : real_gt;
+  const ImuNoiseDensities yaml_noise = fusion.noise;  // before the scales below
   fusion.reorder_window_s = 0.0;
   fusion.noise.gyro_noise *= opt.imu_noise_scale;
   fusion.noise.accel_noise *= opt.imu_noise_scale;
@@ -212,6 +264,8 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
 
   EurocExperimentResult r;
   r.name = name;
+  r.imu_consistency =
+      imu_consistency(imu, gt, yaml_noise, Vector3d(0.0, 0.0, -fusion.gravity_m_s2), 1.0);
   r.measurements = meas.size();
   r.duration_s = ns_to_s(gt[frames.back()].t_ns - g0.t_ns);
 
@@ -427,6 +481,12 @@ std::string format_result(const EurocExperimentResult& r) {
       << "; with the filter's position " << d.with_position << ", velocity " << d.with_velocity
       << ", attitude " << d.with_attitude << ", biases " << d.with_biases
       << "; the filter's whole state " << d.filter << "\n";
+  }
+  if (const auto& c = r.imu_consistency; c.windows > 0) {
+    s << "  IMU vs ground truth over " << c.windows << " 1 s windows (rms of the mean error): "
+      << "accel " << c.accel_rms_m_s2 << " m/s^2 (the YAML's white noise alone "
+      << c.accel_yaml_m_s2 << "), gyro " << c.gyro_rms_rad_s << " rad/s (" << c.gyro_yaml_rad_s
+      << ")\n";
   }
   s << "  counters: " << r.counters.describe() << "\n";
   return s.str();

@@ -92,6 +92,16 @@ struct EurocExperimentResult {
     double truth = 0.0, with_position = 0.0, with_velocity = 0.0, with_attitude = 0.0,
            with_biases = 0.0, filter = 0.0;  ///< max position error in the gap [m]
   } gap_decomposition;
+  /// Does the IMU agree with the ground truth as its YAML says? Over consecutive 1 s windows,
+  /// the IMU integrated along the ground truth's orientation (minus its biases where it has
+  /// them) against the ground truth's change of velocity and of orientation (GroundTruthSpline):
+  /// the rms of the mean specific-force and rate errors, and what the YAML's white noise alone
+  /// predicts for them (density / sqrt(1 s), per axis, as a 3-axis norm).
+  struct ImuConsistency {
+    int windows = 0;
+    double accel_rms_m_s2 = 0.0, gyro_rms_rad_s = 0.0;
+    double accel_yaml_m_s2 = 0.0, gyro_yaml_rad_s = 0.0;
+  } imu_consistency;
   FusionCounters counters;
 };
 
