@@ -26,7 +26,7 @@ class GroundTruthSpline {
   [[nodiscard]] TimeNs t_begin() const { return t_.front(); }
   [[nodiscard]] TimeNs t_end() const { return t_.back(); }
   /// Position, velocity and acceleration (world) and orientation and body rate at t (clamped
-  /// to [t_begin, t_end]).
+  /// to [t_begin, t_end]). On an inner sample the body rate is the mean of its two intervals'.
   [[nodiscard]] Eigen::Vector3d position(TimeNs t) const;
   [[nodiscard]] Eigen::Vector3d velocity(TimeNs t) const;
   [[nodiscard]] Eigen::Vector3d acceleration(TimeNs t) const;
