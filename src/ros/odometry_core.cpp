@@ -127,7 +127,8 @@ struct OdometryCore::Impl {
   // Fusion.
   std::optional<fusion::FusionOptions> fusion_options;
   std::unique_ptr<fusion::FusionEngine> engine;
-  std::optional<fusion::OdometryMeasurements> measurements;  // set by the constructor
+  /// The odometry's measurements for the fusion; the constructor sets its reference and scale.
+  fusion::OdometryMeasurements measurements{fusion::OdometryReference::kKeyframe, 1.0};
   std::deque<io::ImuSample> held_imu;
   std::size_t imu_rejected = 0, fused_states = 0;
 
@@ -208,9 +209,10 @@ OdometryCore::OdometryCore(const OdometryCoreOptions& options,
     throw InputError("vo_covariance_scale must be positive");
   }
   if (!(options.max_imu_hold_s > 0.0)) throw InputError("max_imu_hold_s must be positive");
-  m.measurements.emplace(options.vo_from_keyframe ? fusion::OdometryReference::kKeyframe
-                                                  : fusion::OdometryReference::kPreviousFrame,
-                         options.vo_covariance_scale);
+  m.measurements = fusion::OdometryMeasurements(options.vo_from_keyframe
+                                                    ? fusion::OdometryReference::kKeyframe
+                                                    : fusion::OdometryReference::kPreviousFrame,
+                                                options.vo_covariance_scale);
   m.tracker_options = options.tracker_options_file.empty()
                           ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(options.tracker_options_file);
@@ -260,7 +262,7 @@ void OdometryCore::reset() {
   m.keyframe.reset();
   m.previous.reset();
   m.held_imu.clear();
-  m.measurements->reset();
+  m.measurements.reset();
   if (m.fusion_options) m.engine = std::make_unique<fusion::FusionEngine>(*m.fusion_options);
 }
 
@@ -394,7 +396,7 @@ std::vector<FusedOutput> OdometryCore::Impl::fuse(const odometry::TrackResult& r
   if (!engine) return out;
   release_imu_until(r.t_ns);
   // As `kestrel run`'s tracker stage.
-  if (const auto m = measurements->next(r)) engine->add_relative_pose(*m);
+  if (const auto m = measurements.next(r)) engine->add_relative_pose(*m);
   for (const fusion::FusedState& s : engine->poll(/*imu_rate=*/false)) {
     FusedOutput f;
     f.t_ns = s.t_ns;
