@@ -158,21 +158,24 @@ const kernels::FloatPose& kernel_pose() {
   return T;
 }
 
-// Arg 0: the SIMD (AVX2 gather) version the tracker calls, 1: the scalar reference.
+// Arg 0: the SIMD (AVX2 gather) version the tracker calls, 1: the scalar reference; 2 / 3: the
+// same with bicubic sampling (bicubic_finest_level).
 void BM_WarpResiduals(benchmark::State& s) {
   KernelData d = kernel_data();
-  const bool scalar = s.range(0) == 1;
+  const bool scalar = s.range(0) % 2 == 1;
+  const auto sampling =
+      s.range(0) >= 2 ? kernels::Sampling::kBicubic : kernels::Sampling::kBilinear;
   for (auto _ : s) {
-    const int inside = scalar ? kernels::warp_residuals_scalar(d.points(), d.level(), kernel_pose(),
-                                                               1.0F, 0.0F, d.residual.data(),
-                                                               d.valid.data())
-                              : kernels::warp_residuals(d.points(), d.level(), kernel_pose(), 1.0F,
-                                                        0.0F, d.residual.data(), d.valid.data());
+    const int inside =
+        scalar ? kernels::warp_residuals_scalar(d.points(), d.level(), kernel_pose(), 1.0F, 0.0F,
+                                                d.residual.data(), d.valid.data(), sampling)
+               : kernels::warp_residuals(d.points(), d.level(), kernel_pose(), 1.0F, 0.0F,
+                                         d.residual.data(), d.valid.data(), sampling);
     benchmark::DoNotOptimize(inside);
   }
   s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
 }
-BENCHMARK(BM_WarpResiduals)->Arg(0)->Arg(1);
+BENCHMARK(BM_WarpResiduals)->Arg(0)->Arg(1)->Arg(2)->Arg(3);
 
 KernelData warped_kernel_data() {
   KernelData d = kernel_data();
@@ -303,7 +306,8 @@ BENCHMARK(BM_TrackAgainstKeyframeWithDepthResidual)->Arg(6000)->Unit(benchmark::
 // The real sequence of issue 3 (fr1/rpy part 1, 250 frames, fast rotation, motion blur), decoded
 // once into memory: one iteration tracks all of it with a fresh tracker, so the CPU time per
 // frame includes undistortion, keyframe switches, failures and fallbacks in their real
-// proportions. Arg 0: the default options; 1: without the geometric fallback.
+// proportions. Arg 0: the default options; 1: without the geometric fallback; 2: bicubic
+// sampling on the finest level (bicubic_finest_level).
 struct RealSequence {
   std::vector<odometry::RgbdFrame> frames;
   std::string error;
@@ -338,6 +342,7 @@ void BM_TrackRealSequence(benchmark::State& s) {
   }
   odometry::DirectTrackerOptions o;
   if (s.range(0) == 1) o.geometric_fallback = false;
+  if (s.range(0) == 2) o.bicubic_finest_level = true;
   const PinholeCamera cam = *io::camera_preset("fr1");
   int failures = 0, fallbacks = 0, keyframes = 0;
   long iterations = 0;
@@ -362,6 +367,6 @@ void BM_TrackRealSequence(benchmark::State& s) {
   s.counters["keyframes"] = keyframes;
   s.counters["iters_per_frame"] = static_cast<double>(iterations) / n;
 }
-BENCHMARK(BM_TrackRealSequence)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrackRealSequence)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
 }  // namespace

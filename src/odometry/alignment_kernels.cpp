@@ -27,9 +27,37 @@ FloatPose FloatPose::from(const SE3& T) {
 
 namespace {
 
+// Catmull-Rom weights of the 4 taps at offsets -1, 0, 1, 2 for a fractional position t.
+inline void catmull_rom_weights(float t, float w[4]) {
+  const float t2 = t * t, t3 = t2 * t;
+  w[0] = 0.5F * (-t + 2.0F * t2 - t3);
+  w[1] = 0.5F * (2.0F - 5.0F * t2 + 3.0F * t3);
+  w[2] = 0.5F * (t + 4.0F * t2 - 3.0F * t3);
+  w[3] = 0.5F * (t3 - t2);
+}
+
+// Bicubic sample at (u, v) in [0, w-1) x [0, h-1); bilinear within a pixel of the border.
+inline float sample_bicubic(const LevelImage& cur, float u, float v) {
+  const int x0 = static_cast<int>(u);
+  const int y0 = static_cast<int>(v);
+  if (x0 < 1 || y0 < 1 || x0 > cur.width - 3 || y0 > cur.height - 3) {
+    return image::sample_bilinear_unchecked(cur.data, cur.stride, u, v);
+  }
+  float wx[4], wy[4];
+  catmull_rom_weights(u - static_cast<float>(x0), wx);
+  catmull_rom_weights(v - static_cast<float>(y0), wy);
+  float out = 0.0F;
+  for (int k = 0; k < 4; ++k) {
+    const float* r = cur.data + static_cast<std::ptrdiff_t>(y0 - 1 + k) * cur.stride + (x0 - 1);
+    out += wy[k] * (wx[0] * r[0] + wx[1] * r[1] + wx[2] * r[2] + wx[3] * r[3]);
+  }
+  return out;
+}
+
 // One point of warp_residuals; returns whether it is valid.
 inline bool warp_point(const PointsView& p, const LevelImage& cur, const FloatPose& T, float umax,
-                       float vmax, float alpha, float beta, int i, float& residual) {
+                       float vmax, float alpha, float beta, int i, Sampling sampling,
+                       float& residual) {
   const float X = T.r00 * p.x[i] + T.r01 * p.y[i] + T.r02 * p.z[i] + T.t0;
   const float Y = T.r10 * p.x[i] + T.r11 * p.y[i] + T.r12 * p.z[i] + T.t1;
   const float Z = T.r20 * p.x[i] + T.r21 * p.y[i] + T.r22 * p.z[i] + T.t2;
@@ -40,18 +68,21 @@ inline bool warp_point(const PointsView& p, const LevelImage& cur, const FloatPo
   const bool inside = Z > 1e-3F && u >= 0.0F && u < umax && v >= 0.0F && v < vmax;
   u = inside ? u : 0.0F;
   v = inside ? v : 0.0F;
-  const float ic = image::sample_bilinear_unchecked(cur.data, cur.stride, u, v);
+  const float ic = sampling == Sampling::kBicubic
+                       ? sample_bicubic(cur, u, v)
+                       : image::sample_bilinear_unchecked(cur.data, cur.stride, u, v);
   residual = inside ? alpha * ic + beta - p.intensity[i] : 0.0F;
   return inside;
 }
 
 int warp_range_scalar(const PointsView& p, const LevelImage& cur, const FloatPose& T, float alpha,
-                      float beta, int begin, float* residual, std::uint8_t* valid) {
+                      float beta, int begin, float* residual, std::uint8_t* valid,
+                      Sampling sampling) {
   const auto umax = static_cast<float>(cur.width - 1);
   const auto vmax = static_cast<float>(cur.height - 1);
   int inside_count = 0;
   for (int i = begin; i < p.count; ++i) {
-    const bool inside = warp_point(p, cur, T, umax, vmax, alpha, beta, i, residual[i]);
+    const bool inside = warp_point(p, cur, T, umax, vmax, alpha, beta, i, sampling, residual[i]);
     valid[i] = inside ? 1 : 0;
     inside_count += inside ? 1 : 0;
   }
@@ -69,19 +100,66 @@ constexpr std::array<std::uint64_t, 256> kMaskBytes = [] {
   }
   return t;
 }();
+
+// Catmull-Rom weights of 8 lanes (catmull_rom_weights).
+inline void catmull_rom_weights8(__m256 t, __m256 w[4]) {
+  const __m256 half = _mm256_set1_ps(0.5F);
+  const __m256 t2 = _mm256_mul_ps(t, t), t3 = _mm256_mul_ps(t2, t);
+  const __m256 two = _mm256_set1_ps(2.0F), three = _mm256_set1_ps(3.0F);
+  w[0] = _mm256_mul_ps(half, _mm256_sub_ps(_mm256_fmsub_ps(two, t2, t), t3));
+  w[1] = _mm256_mul_ps(half,
+                       _mm256_fmadd_ps(three, t3, _mm256_fnmadd_ps(_mm256_set1_ps(5.0F), t2, two)));
+  w[2] = _mm256_mul_ps(half,
+                       _mm256_fnmadd_ps(three, t3, _mm256_fmadd_ps(_mm256_set1_ps(4.0F), t2, t)));
+  w[3] = _mm256_mul_ps(half, _mm256_sub_ps(t3, t2));
+}
+
+// The bicubic sample of 8 lanes whose bilinear sample is `bilinear` (kept within a pixel of the
+// border, as sample_bicubic does): 16 gathers from the clamped 4x4 neighbourhood.
+inline __m256 bicubic_lanes(const LevelImage& cur, __m256i x0, __m256i y0, __m256 ax, __m256 ay,
+                            __m256 bilinear) {
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i xmax = _mm256_set1_epi32(cur.width - 3), ymax = _mm256_set1_epi32(cur.height - 3);
+  const __m256i interior = _mm256_and_si256(
+      _mm256_and_si256(_mm256_cmpgt_epi32(x0, _mm256_setzero_si256()),
+                       _mm256_cmpgt_epi32(y0, _mm256_setzero_si256())),
+      _mm256_andnot_si256(
+          _mm256_or_si256(_mm256_cmpgt_epi32(x0, xmax), _mm256_cmpgt_epi32(y0, ymax)),
+          _mm256_set1_epi32(-1)));
+  const __m256i xc = _mm256_max_epi32(one, _mm256_min_epi32(x0, xmax));
+  const __m256i yc = _mm256_max_epi32(one, _mm256_min_epi32(y0, ymax));
+  const __m256i stride = _mm256_set1_epi32(cur.stride);
+  __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(yc, one), stride),
+                                 _mm256_sub_epi32(xc, one));
+  __m256 wx[4], wy[4];
+  catmull_rom_weights8(ax, wx);
+  catmull_rom_weights8(ay, wy);
+  __m256 out = _mm256_setzero_ps();
+  for (int k = 0; k < 4; ++k) {
+    __m256 row = _mm256_mul_ps(wx[0], _mm256_i32gather_ps(cur.data, idx, 4));
+    row = _mm256_fmadd_ps(wx[1], _mm256_i32gather_ps(cur.data + 1, idx, 4), row);
+    row = _mm256_fmadd_ps(wx[2], _mm256_i32gather_ps(cur.data + 2, idx, 4), row);
+    row = _mm256_fmadd_ps(wx[3], _mm256_i32gather_ps(cur.data + 3, idx, 4), row);
+    out = _mm256_fmadd_ps(wy[k], row, out);
+    idx = _mm256_add_epi32(idx, stride);
+  }
+  return _mm256_blendv_ps(bilinear, out, _mm256_castsi256_ps(interior));
+}
 #endif
 
 }  // namespace
 
 int warp_residuals_scalar(const PointsView& points, const LevelImage& cur,
                           const FloatPose& T_cur_ref, float alpha, float beta, float* residual,
-                          std::uint8_t* valid) {
-  return warp_range_scalar(points, cur, T_cur_ref, alpha, beta, 0, residual, valid);
+                          std::uint8_t* valid, Sampling sampling) {
+  return warp_range_scalar(points, cur, T_cur_ref, alpha, beta, 0, residual, valid, sampling);
 }
 
 int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatPose& T_cur_ref,
-                   float alpha, float beta, float* residual, std::uint8_t* valid) {
+                   float alpha, float beta, float* residual, std::uint8_t* valid,
+                   Sampling sampling) {
 #ifdef KESTREL_KERNELS_AVX2
+  const bool bicubic = sampling == Sampling::kBicubic && cur.width >= 4 && cur.height >= 4;
   const FloatPose& T = T_cur_ref;
   const __m256 r00 = _mm256_set1_ps(T.r00), r01 = _mm256_set1_ps(T.r01),
                r02 = _mm256_set1_ps(T.r02);
@@ -135,7 +213,8 @@ int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatP
     const __m256 p11 = _mm256_i32gather_ps(d11, idx, 4);
     const __m256 top = _mm256_fmadd_ps(ax, _mm256_sub_ps(p01, p00), p00);
     const __m256 bottom = _mm256_fmadd_ps(ax, _mm256_sub_ps(p11, p10), p10);
-    const __m256 ic = _mm256_fmadd_ps(ay, _mm256_sub_ps(bottom, top), top);
+    __m256 ic = _mm256_fmadd_ps(ay, _mm256_sub_ps(bottom, top), top);
+    if (bicubic) ic = bicubic_lanes(cur, x0, y0, ax, ay, ic);
     const __m256 r =
         _mm256_sub_ps(_mm256_fmadd_ps(va, ic, vb), _mm256_loadu_ps(points.intensity + i));
     _mm256_storeu_ps(residual + i, _mm256_and_ps(r, m));
@@ -143,9 +222,10 @@ int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatP
     std::memcpy(valid + i, &kMaskBytes[mask], 8);
     inside_count += std::popcount(mask);
   }
-  return inside_count + warp_range_scalar(points, cur, T_cur_ref, alpha, beta, i, residual, valid);
+  return inside_count +
+         warp_range_scalar(points, cur, T_cur_ref, alpha, beta, i, residual, valid, sampling);
 #else
-  return warp_residuals_scalar(points, cur, T_cur_ref, alpha, beta, residual, valid);
+  return warp_residuals_scalar(points, cur, T_cur_ref, alpha, beta, residual, valid, sampling);
 #endif
 }
 

@@ -584,13 +584,14 @@ struct TrackerAccess {
   // Warp + bilinear sample + residual for every reference point of level L under T_cur_ref.
   // Returns the number of points that land inside the image.
   static int warp_residuals(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& cur,
-                            const SE3& T_cur_ref, float alpha, float beta) {
+                            const SE3& T_cur_ref, float alpha, float beta,
+                            kernels::Sampling sampling) {
     const kernels::PointsView points{L.x.data(), L.y.data(), L.z.data(), L.intensity.data(),
                                      L.count};
     const kernels::LevelImage image{cur.ptr<float>(), static_cast<int>(cur.step1()), cur.cols,
                                     cur.rows, L.fx, L.fy, L.cx, L.cy};
-    return kernels::warp_residuals(points, image, kernels::FloatPose::from(T_cur_ref), alpha,
-                                   beta, m.residual.data(), m.valid.data());
+    return kernels::warp_residuals(points, image, kernels::FloatPose::from(T_cur_ref), alpha, beta,
+                                   m.residual.data(), m.valid.data(), sampling);
   }
 };
 
@@ -794,9 +795,13 @@ struct AlignRunner {
         }
       };
 
+      // bicubic_finest_level: Catmull-Rom sampling on the finest level (alignment_kernels.hpp).
+      const kernels::Sampling sampling = finest && o.bicubic_finest_level
+                                             ? kernels::Sampling::kBicubic
+                                             : kernels::Sampling::kBilinear;
       for (int it = 0; it < max_iter; ++it) {
         inside = TrackerAccess::warp_residuals(m, L, cur, T, static_cast<float>(alpha),
-                                               static_cast<float>(beta));
+                                               static_cast<float>(beta), sampling);
         if (geo) geo_count = TrackerAccess::warp_geometric(m, L, *cur_depth, T, geo_spread);
         ++res.iterations;
         if (inside < o.min_points) {

@@ -71,33 +71,34 @@ TEST(AlignmentKernels, WarpMatchesTheScalarReferenceOnEveryPoint) {
     return m;
   }();
   const SE3 T = SE3::exp((Vector6d() << 0.02, -0.01, 0.03, 0.02, -0.03, 0.01).finished());
-  for (int n : {0, 1, 7, 8, 9, 1003}) {
-    const Points p = random_points(n, rng);
-    std::vector<float> r_simd(p.x.size(), -1.0F), r_ref(p.x.size(), -1.0F);
-    std::vector<std::uint8_t> v_simd(p.x.size(), 7), v_ref(p.x.size(), 7);
-    const int in_simd = warp_residuals(p.view(), level_of(image), FloatPose::from(T), 1.1F, -0.05F,
-                                       r_simd.data(), v_simd.data());
-    const int in_ref = warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(T), 1.1F,
-                                             -0.05F, r_ref.data(), v_ref.data());
-    ASSERT_EQ(in_simd, in_ref) << n << " points";
-    int valid = 0;
-    for (int i = 0; i < n; ++i) {
-      const auto s = static_cast<std::size_t>(i);
-      ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
-      ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
-      // The random image changes by up to 1 per pixel and u, v round differently by ~1e-5 px.
-      EXPECT_NEAR(r_simd[s], r_ref[s], 1e-4F) << "point " << i;
-      if (v_simd[s] == 0) {
-        EXPECT_EQ(r_simd[s], 0.0F);
+  for (const Sampling sampling : {Sampling::kBilinear, Sampling::kBicubic})
+    for (int n : {0, 1, 7, 8, 9, 1003}) {
+      const Points p = random_points(n, rng);
+      std::vector<float> r_simd(p.x.size(), -1.0F), r_ref(p.x.size(), -1.0F);
+      std::vector<std::uint8_t> v_simd(p.x.size(), 7), v_ref(p.x.size(), 7);
+      const int in_simd = warp_residuals(p.view(), level_of(image), FloatPose::from(T), 1.1F,
+                                         -0.05F, r_simd.data(), v_simd.data(), sampling);
+      const int in_ref = warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(T), 1.1F,
+                                               -0.05F, r_ref.data(), v_ref.data(), sampling);
+      ASSERT_EQ(in_simd, in_ref) << n << " points";
+      int valid = 0;
+      for (int i = 0; i < n; ++i) {
+        const auto s = static_cast<std::size_t>(i);
+        ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
+        ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
+        // The random image changes by up to 1 per pixel and u, v round differently by ~1e-5 px.
+        EXPECT_NEAR(r_simd[s], r_ref[s], 1e-4F) << "point " << i;
+        if (v_simd[s] == 0) {
+          EXPECT_EQ(r_simd[s], 0.0F);
+        }
+        valid += v_simd[s];
       }
-      valid += v_simd[s];
+      EXPECT_EQ(valid, in_simd);
+      if (n > 100) {
+        EXPECT_GT(in_simd, n / 2);  // the test exercises both kinds of point
+        EXPECT_LT(in_simd, n);
+      }
     }
-    EXPECT_EQ(valid, in_simd);
-    if (n > 100) {
-      EXPECT_GT(in_simd, n / 2);  // the test exercises both kinds of point
-      EXPECT_LT(in_simd, n);
-    }
-  }
 }
 
 TEST(AlignmentKernels, WarpOfALinearImageGivesTheKnownResidual) {
@@ -132,6 +133,62 @@ TEST(AlignmentKernels, WarpOfALinearImageGivesTheKnownResidual) {
   }
   EXPECT_EQ(inside, expected_inside);
   EXPECT_GT(inside, 48);
+}
+
+// Catmull-Rom reproduces quadratics exactly; bilinear errs by the curvature times a quarter of a
+// pixel squared. Both paths, interior points and points within a pixel of the border (where
+// bicubic falls back to bilinear).
+TEST(AlignmentKernels, BicubicSamplingReproducesAQuadraticImage) {
+  const int w = 160, h = 120;
+  auto f = [](double u, double v) {
+    return 0.1 + 0.002 * u + 0.001 * v + 2e-5 * u * u + 3e-5 * v * v - 1e-5 * u * v;
+  };
+  cv::Mat image(h, w, CV_32FC1);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) image.at<float>(v, u) = static_cast<float>(f(u, v));
+  }
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> ui(1.0F, w - 2.0F), vi(1.0F, h - 2.0F), frac(0.0F, 1.0F);
+  const int n = 203;
+  Points p(n);
+  std::vector<double> us(n), vs(n);
+  for (int i = 0; i < n; ++i) {
+    const auto s = static_cast<std::size_t>(i);
+    // Every 10th point in the border band [0, 1) x rows, the rest inside.
+    const float u = i % 10 == 0 ? frac(rng) * 0.999F : ui(rng) * 0.9999F;
+    const float v = vi(rng) * 0.9999F;
+    us[s] = u;
+    vs[s] = v;
+    p.x[s] = (u - 80.0F) / 300.0F;  // Z = 1: pixel (u, v) under the identity
+    p.y[s] = (v - 60.0F) / 300.0F;
+    p.z[s] = 1.0F;
+    p.intensity[s] = 0.0F;
+  }
+  for (const bool simd : {true, false}) {
+    std::vector<float> rc(p.x.size()), rl(p.x.size());
+    std::vector<std::uint8_t> valid(p.x.size());
+    const auto run = [&](Sampling smp, std::vector<float>& r) {
+      return simd ? warp_residuals(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F, 0.0F,
+                                   r.data(), valid.data(), smp)
+                  : warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F,
+                                          0.0F, r.data(), valid.data(), smp);
+    };
+    ASSERT_EQ(run(Sampling::kBicubic, rc), n);
+    ASSERT_EQ(run(Sampling::kBilinear, rl), n);
+    double max_bilinear_error = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const auto s = static_cast<std::size_t>(i);
+      const double truth = f(us[s], vs[s]);
+      if (i % 10 == 0) {
+        EXPECT_EQ(rc[s], rl[s]) << "border point " << i;  // the bilinear fallback
+        continue;
+      }
+      EXPECT_NEAR(rc[s], truth, 2e-6) << "point " << i << (simd ? " (simd)" : " (scalar)");
+      max_bilinear_error =
+          std::max(max_bilinear_error, std::fabs(static_cast<double>(rl[s]) - truth));
+    }
+    EXPECT_GT(max_bilinear_error, 5e-6);  // the comparison can tell the two apart
+  }
 }
 
 // Bilinear sampling reads (u + 1, v + 1): the last column and row are outside, for the 8-wide

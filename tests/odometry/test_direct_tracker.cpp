@@ -239,18 +239,22 @@ TEST(DirectTracker, BlurredFrameIsTrackedByTheGeometricFallback) {
             << rotation_error_deg(r.T_ref_cur, T) << " deg\n";
 }
 
-TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
+// 100 frames of a still camera with real-like sensor noise, tracked with `options`.
+struct StillCameraRun {
+  int within_target = 0;  // frames within the issue's 0.1 mm
+  double max_t_err = 0.0, max_r_err_deg = 0.0, rms = 0.0, predicted_rms = 0.0;
+};
+StillCameraRun run_still_camera(const DirectTrackerOptions& options) {
   const PinholeCamera cam({525.0, 525.0, 319.5, 239.5, 640, 480});
   const auto room = test::make_room();
   const auto clean = render(room, cam, SE3());
   std::mt19937 rng(11);
   std::normal_distribution<float> n01(0.0F, 1.0F);
-  DirectTracker tracker(cam);
-  int within_target = 0;
+  DirectTracker tracker(cam, options);
+  StillCameraRun out;
   double sum_sq = 0.0, predicted_sum_sq = 0.0;
-  double max_t_err = 0.0;
   for (int k = 0; k < 100; ++k) {
-    RgbdFrame f;  // 100 frames of the still camera
+    RgbdFrame f;
     f.t_ns = k * 33'333'333LL;
     f.image.create(clean.image.size(), CV_8UC1);
     f.depth_m.create(clean.depth_m.size(), CV_32FC1);
@@ -266,28 +270,49 @@ TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
       }
     }
     const TrackResult r = tracker.track(f);
-    ASSERT_TRUE(r.ok()) << "frame " << k << ": " << r.failure_detail;
+    EXPECT_TRUE(r.ok()) << "frame " << k << ": " << r.failure_detail;
     const double t_err = r.T_world_cam.translation().norm();
-    within_target += t_err < 1e-4 ? 1 : 0;
+    out.within_target += t_err < 1e-4 ? 1 : 0;
     sum_sq += t_err * t_err;
     predicted_sum_sq += r.covariance.diagonal().head<3>().sum();  // E|t|^2 by the covariance
-    max_t_err = std::max(max_t_err, t_err);
-    // REGRESSION GUARD on translation, not the issue's target: issue target < 0.1 mm per frame
-    // not met: measured max 0.114 mm, 4 of 100 frames above 0.1 mm (docs/odometry.md). It is the
-    // statistical floor of one frame-to-keyframe alignment at this noise (checked below against
-    // the covariance), not a bias: other noise seeds give a max of 0.12-0.17 mm.
-    EXPECT_LT(t_err, 1.3e-4) << "frame " << k;
-    EXPECT_LT(rotation_error_deg(r.T_world_cam, SE3()), 0.01) << "frame " << k;  // issue target
+    out.max_t_err = std::max(out.max_t_err, t_err);
+    out.max_r_err_deg = std::max(out.max_r_err_deg, rotation_error_deg(r.T_world_cam, SE3()));
   }
-  RecordProperty("max_translation_error_m", std::to_string(max_t_err));
-  const double rms = std::sqrt(sum_sq / 99), predicted_rms = std::sqrt(predicted_sum_sq / 99);
-  std::cout << "still camera: " << within_target << "/100 frames < 0.1 mm, max " << max_t_err * 1e3
-            << " mm, rms " << rms * 1e3 << " mm (covariance: " << predicted_rms * 1e3 << " mm)\n";
-  EXPECT_GE(within_target, 90);  // regression guard (measured 96)
+  out.rms = std::sqrt(sum_sq / 99);
+  out.predicted_rms = std::sqrt(predicted_sum_sq / 99);
+  std::cout << "still camera: " << out.within_target << "/100 frames < 0.1 mm, max "
+            << out.max_t_err * 1e3 << " mm, rms " << out.rms * 1e3
+            << " mm (covariance: " << out.predicted_rms * 1e3 << " mm), max rotation "
+            << out.max_r_err_deg << " deg\n";
+  return out;
+}
+
+TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
+  const StillCameraRun s = run_still_camera(DirectTrackerOptions{});
+  RecordProperty("max_translation_error_m", std::to_string(s.max_t_err));
+  // REGRESSION GUARD on translation with the defaults, not the issue's target: < 0.1 mm per frame
+  // is met with bicubic_finest_level (the next test), not with the default bilinear sampling:
+  // measured max 0.113 mm, 4 of 100 frames above 0.1 mm (docs/odometry.md).
+  EXPECT_LT(s.max_t_err, 1.3e-4);
+  EXPECT_GE(s.within_target, 90);    // measured 96
+  EXPECT_LT(s.max_r_err_deg, 0.01);  // issue target
   // Consistency: the errors are those the reported covariance predicts (the keyframe's own noise,
   // shared by all frames, adds to the spread), not a convergence defect.
-  EXPECT_GT(rms, 0.5 * predicted_rms);
-  EXPECT_LT(rms, 2.0 * predicted_rms);
+  EXPECT_GT(s.rms, 0.5 * s.predicted_rms);
+  EXPECT_LT(s.rms, 2.0 * s.predicted_rms);
+}
+
+// Bilinear sampling's cost has a kink at integer pixel positions, exactly where a still camera's
+// points land, and the finest level ends there short of the noise floor; bicubic sampling on the
+// finest level removes the kink: the issue's target on every frame (measured 100 of 100, max
+// 0.089 mm, rms 0.036 mm against the covariance's 0.042).
+TEST(DirectTracker, StillCameraWithBicubicFinestLevelMeetsTheTarget) {
+  DirectTrackerOptions o;
+  o.bicubic_finest_level = true;
+  const StillCameraRun s = run_still_camera(o);
+  EXPECT_EQ(s.within_target, 100);   // issue target: < 0.1 mm on every frame
+  EXPECT_LT(s.max_r_err_deg, 0.01);  // issue target
+  EXPECT_LT(s.rms, 1.2 * s.predicted_rms);
 }
 
 TEST(DirectTracker, SequenceWithKeyframesFollowsASmoothMotion) {

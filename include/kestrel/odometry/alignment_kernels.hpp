@@ -45,17 +45,24 @@ struct LevelImage {
   float fx = 0, fy = 0, cx = 0, cy = 0;
 };
 
+/// How the current image is sampled at a warped point. Bilinear is continuous but its derivative
+/// jumps at every integer pixel position, so the cost has a kink exactly where a still camera's
+/// points land; bicubic (Catmull-Rom, 4x4 taps, C1) has none (docs/odometry.md, "Still camera").
+/// Within one pixel of the border bicubic falls back to bilinear.
+enum class Sampling { kBilinear, kBicubic };
+
 /// r_i = alpha I_cur(pi(T_cur_ref P_i)) + beta - I_ref,i for every point whose projection lies in
 /// [0, w-1) x [0, h-1) with Z > 1 mm (valid_i = 1); elsewhere r_i = 0, valid_i = 0. Returns the
 /// number of valid points. NaN coordinates are invalid. Uses AVX2 gathers where compiled for
 /// them, else warp_residuals_scalar.
 int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatPose& T_cur_ref,
-                   float alpha, float beta, float* residual, std::uint8_t* valid);
+                   float alpha, float beta, float* residual, std::uint8_t* valid,
+                   Sampling sampling = Sampling::kBilinear);
 /// The reference implementation (one point at a time); results equal warp_residuals' to float
 /// rounding.
 int warp_residuals_scalar(const PointsView& points, const LevelImage& cur,
                           const FloatPose& T_cur_ref, float alpha, float beta, float* residual,
-                          std::uint8_t* valid);
+                          std::uint8_t* valid, Sampling sampling = Sampling::kBilinear);
 
 /// sum_i rho(r_i / sigma) over valid points plus rho_max = c^2/6 per invalid point (Tukey cost,
 /// thesis eq. 3.39 integrated): the robust cost a step is accepted on.

@@ -78,6 +78,13 @@ struct DirectTrackerOptions {
   /// A step that raises the robust cost (at the sigma it was computed with) is undone and
   /// ends the level: Gauss-Newton has reached the noise floor.
   bool stop_on_cost_increase = true;
+  /// Sample the current image bicubically (Catmull-Rom) on the finest level, bilinearly on the
+  /// others. Bilinear sampling's derivative jumps at integer pixel positions, where a still or
+  /// hovering camera's points land, and the level there ends at the kink short of the noise
+  /// floor; the C1 bicubic cost has no kink. Off by default: it makes the warp 3x dearer
+  /// (+1.6 ms per fr1 frame, over the 10 ms budget on this machine) for a still camera's last
+  /// hundredth of a millimetre (docs/odometry.md, "Still camera").
+  bool bicubic_finest_level = false;
 
   // --- motion prior and keyframes (thesis 5.2 future work) ---
   bool constant_velocity_prior = true;  ///< initial guess: the last motion, scaled by dt
