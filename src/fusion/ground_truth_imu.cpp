@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/fusion/simulation.hpp"
 
 namespace kestrel::fusion {
 
@@ -97,22 +98,12 @@ Vector3d GroundTruthSpline::body_rate(TimeNs t) const {
   return w_[i];
 }
 
-namespace {
-
-Vector3d gaussian3(std::mt19937_64& rng, double sigma) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  return Vector3d(n(rng), n(rng), n(rng)) * sigma;
-}
-
-}  // namespace
-
 std::vector<io::ImuSample> imu_from_ground_truth(std::vector<GroundTruthSample>& gt,
                                                  const std::vector<TimeNs>& stamps,
                                                  const GroundTruthImuOptions& options,
                                                  std::mt19937_64& rng) {
   const GroundTruthSpline spline(gt);
   const Vector3d g_world(0.0, 0.0, -options.gravity_m_s2);
-  const ImuNoiseDensities& nd = options.noise;
   const bool start_biased = options.noise_on && gt.front().has_bias;
   Vector3d bg = start_biased ? gt.front().gyro_bias : Vector3d::Zero();
   Vector3d ba = start_biased ? gt.front().accel_bias : Vector3d::Zero();
@@ -126,17 +117,15 @@ std::vector<io::ImuSample> imu_from_ground_truth(std::vector<GroundTruthSample>&
       throw InputError("synthetic IMU: time stamps not increasing at " + std::to_string(t));
     }
     const double dt = imu.empty() ? 0.0 : ns_to_s(t - imu.back().t_ns);
-    if (options.noise_on && dt > 0.0) {
-      bg += gaussian3(rng, nd.gyro_walk * std::sqrt(dt));
-      ba += gaussian3(rng, nd.accel_walk * std::sqrt(dt));
-    }
     io::ImuSample s;
     s.t_ns = t;
-    s.gyro_rad_s = spline.body_rate(t) + bg;
-    s.accel_m_s2 = spline.orientation(t).inverse() * (spline.acceleration(t) - g_world) + ba;
+    s.gyro_rad_s = spline.body_rate(t);
+    s.accel_m_s2 = spline.orientation(t).inverse() * (spline.acceleration(t) - g_world);
     if (options.noise_on && dt > 0.0) {
-      s.gyro_rad_s += gaussian3(rng, nd.gyro_noise / std::sqrt(dt));
-      s.accel_m_s2 += gaussian3(rng, nd.accel_noise / std::sqrt(dt));
+      add_imu_errors(s, bg, ba, options.noise, dt, true, rng);  // the simulator's sensor model
+    } else {  // the first sample: its biases, no interval for noise or walk
+      s.gyro_rad_s += bg;
+      s.accel_m_s2 += ba;
     }
     imu.push_back(s);
     biases.emplace_back(bg, ba);

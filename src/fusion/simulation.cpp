@@ -87,6 +87,16 @@ Matrix6d simulated_vo_covariance(const SimulationOptions& sim) {
   return d.asDiagonal();
 }
 
+void add_imu_errors(io::ImuSample& sample, Vector3d& gyro_bias, Vector3d& accel_bias,
+                    const ImuNoiseDensities& noise, double dt, bool walk, std::mt19937_64& rng) {
+  if (walk) {
+    gyro_bias += gaussian3(rng, noise.gyro_walk * std::sqrt(dt));
+    accel_bias += gaussian3(rng, noise.accel_walk * std::sqrt(dt));
+  }
+  sample.gyro_rad_s += gyro_bias + gaussian3(rng, noise.gyro_noise / std::sqrt(dt));
+  sample.accel_m_s2 += accel_bias + gaussian3(rng, noise.accel_noise / std::sqrt(dt));
+}
+
 SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions& sim,
                           const FusionOptions& fusion, std::mt19937_64& rng) {
   if (!(sim.imu_rate_hz > 0.0) || !(sim.vo_rate_hz > 0.0) || !(sim.duration_s > 0.0)) {
@@ -112,14 +122,7 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
     const TimeNs t_ns = static_cast<TimeNs>(k) * period;
     const FlightPoint pt = flight.at(ns_to_s(t_ns));
     io::ImuSample s = ideal_imu_sample(pt, t_ns, g);
-    if (sim.imu_noise) {
-      if (k > 0) {
-        bg += gaussian3(rng, nd.gyro_walk * std::sqrt(dt));
-        ba += gaussian3(rng, nd.accel_walk * std::sqrt(dt));
-      }
-      s.gyro_rad_s += bg + gaussian3(rng, nd.gyro_noise / std::sqrt(dt));
-      s.accel_m_s2 += ba + gaussian3(rng, nd.accel_noise / std::sqrt(dt));
-    }
+    if (sim.imu_noise) add_imu_errors(s, bg, ba, nd, dt, k > 0, rng);
     run.imu.push_back(s);
     run.gyro_bias.push_back(bg);
     run.accel_bias.push_back(ba);

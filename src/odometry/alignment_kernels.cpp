@@ -114,13 +114,14 @@ inline void catmull_rom_weights8(__m256 t, __m256 w[4]) {
   w[3] = _mm256_mul_ps(half, _mm256_sub_ps(t3, t2));
 }
 
-// The bicubic sample of 8 lanes whose bilinear sample is `bilinear` (kept within a pixel of the
-// border, as sample_bicubic does): 16 gathers from the clamped 4x4 neighbourhood.
+// The bicubic sample of 8 lanes: 16 gathers from the clamped 4x4 neighbourhood. `interior`
+// marks the lanes it holds for; the others (within a pixel of the border) take the bilinear
+// sample, as sample_bicubic does.
 inline __m256 bicubic_lanes(const LevelImage& cur, __m256i x0, __m256i y0, __m256 ax, __m256 ay,
-                            __m256 bilinear) {
+                            __m256& interior) {
   const __m256i one = _mm256_set1_epi32(1);
   const __m256i xmax = _mm256_set1_epi32(cur.width - 3), ymax = _mm256_set1_epi32(cur.height - 3);
-  const __m256i interior = _mm256_and_si256(
+  const __m256i inner = _mm256_and_si256(
       _mm256_and_si256(_mm256_cmpgt_epi32(x0, _mm256_setzero_si256()),
                        _mm256_cmpgt_epi32(y0, _mm256_setzero_si256())),
       _mm256_andnot_si256(
@@ -143,7 +144,8 @@ inline __m256 bicubic_lanes(const LevelImage& cur, __m256i x0, __m256i y0, __m25
     out = _mm256_fmadd_ps(wy[k], row, out);
     idx = _mm256_add_epi32(idx, stride);
   }
-  return _mm256_blendv_ps(bilinear, out, _mm256_castsi256_ps(interior));
+  interior = _mm256_castsi256_ps(inner);
+  return out;
 }
 #endif
 
@@ -206,15 +208,25 @@ int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatP
     const __m256i y0 = _mm256_cvttps_epi32(v);
     const __m256 ax = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
     const __m256 ay = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
-    const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y0, stride), x0);
-    const __m256 p00 = _mm256_i32gather_ps(d00, idx, 4);
-    const __m256 p01 = _mm256_i32gather_ps(d01, idx, 4);
-    const __m256 p10 = _mm256_i32gather_ps(d10, idx, 4);
-    const __m256 p11 = _mm256_i32gather_ps(d11, idx, 4);
-    const __m256 top = _mm256_fmadd_ps(ax, _mm256_sub_ps(p01, p00), p00);
-    const __m256 bottom = _mm256_fmadd_ps(ax, _mm256_sub_ps(p11, p10), p10);
-    __m256 ic = _mm256_fmadd_ps(ay, _mm256_sub_ps(bottom, top), top);
-    if (bicubic) ic = bicubic_lanes(cur, x0, y0, ax, ay, ic);
+    auto bilinear = [&] {
+      const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y0, stride), x0);
+      const __m256 p00 = _mm256_i32gather_ps(d00, idx, 4);
+      const __m256 p01 = _mm256_i32gather_ps(d01, idx, 4);
+      const __m256 p10 = _mm256_i32gather_ps(d10, idx, 4);
+      const __m256 p11 = _mm256_i32gather_ps(d11, idx, 4);
+      const __m256 top = _mm256_fmadd_ps(ax, _mm256_sub_ps(p01, p00), p00);
+      const __m256 bottom = _mm256_fmadd_ps(ax, _mm256_sub_ps(p11, p10), p10);
+      return _mm256_fmadd_ps(ay, _mm256_sub_ps(bottom, top), top);
+    };
+    __m256 ic;
+    if (bicubic) {
+      // The bilinear gathers only where a lane is within a pixel of the border.
+      __m256 interior;
+      ic = bicubic_lanes(cur, x0, y0, ax, ay, interior);
+      if (_mm256_movemask_ps(interior) != 0xFF) ic = _mm256_blendv_ps(bilinear(), ic, interior);
+    } else {
+      ic = bilinear();
+    }
     const __m256 r =
         _mm256_sub_ps(_mm256_fmadd_ps(va, ic, vb), _mm256_loadu_ps(points.intensity + i));
     _mm256_storeu_ps(residual + i, _mm256_and_ps(r, m));

@@ -45,6 +45,13 @@ class SimulatedFlight {
 /// gyro = omega_body, accel = R^T (a - g): an ideal IMU on the body.
 io::ImuSample ideal_imu_sample(const FlightPoint& point, TimeNs t_ns, const Eigen::Vector3d& g_world);
 
+/// The sensor model of FusionOptions::noise applied to one ideal sample taken dt after the
+/// previous one: with `walk` the biases first walk by density * sqrt(dt); then the sample gets
+/// the biases plus white noise of density / sqrt(dt). Draws, in order: gyro walk, accel walk (if
+/// walk), gyro noise, accel noise.
+void add_imu_errors(io::ImuSample& sample, Eigen::Vector3d& gyro_bias, Eigen::Vector3d& accel_bias,
+                    const ImuNoiseDensities& noise, double dt, bool walk, std::mt19937_64& rng);
+
 struct SimulationOptions {
   double duration_s = 30.0;
   double imu_rate_hz = 200.0;
