@@ -40,6 +40,7 @@ struct OdometryArgs {
   std::filesystem::path config;
   std::filesystem::path frames;  // --frames: per-frame health CSV
   std::string camera;
+  double depth_scale = io::TumRgbdOptions{}.depth_scale;  // depth PNG units per metre
   bool force = false;
   bool quiet = false;
   // --stereo: an EuRoC folder, block-matched and tracked in disparity space.
@@ -189,6 +190,9 @@ void run_stereo_odometry(const OdometryArgs& args) {
     throw InputError("--camera: not used with --stereo (the rig comes from the EuRoC folder's "
                      "cam0/cam1 sensor.yaml)");
   }
+  if (args.depth_scale != io::TumRgbdOptions{}.depth_scale) {
+    throw InputError("--depth-scale: not used with --stereo (depth comes from the disparity)");
+  }
   const odometry::DirectTrackerOptions options =
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
@@ -290,11 +294,15 @@ void run_odometry(const OdometryArgs& args) {
                           : odometry::DirectTrackerOptions::load(args.config);
   // Refuse to overwrite someone else's file before doing the work.
   io::check_can_write_file(args.out, kCommand, args.force);
-  const io::TumRgbdSequence sequence(args.dataset);
+  io::TumRgbdOptions sequence_options;
+  sequence_options.depth_scale = args.depth_scale;
+  const io::TumRgbdSequence sequence(args.dataset, sequence_options);
 
-  std::cerr << "kestrel odometry: dataset=" << args.dataset.string() << " frames=" << sequence.size()
-            << " (unmatched rgb: " << sequence.unmatched_rgb() << ")\n"
-            << "camera " << camera_name << ": " << camera.describe() << "\n";
+  std::cerr << "kestrel odometry: dataset=" << args.dataset.string()
+            << " frames=" << sequence.size() << " (unmatched rgb: " << sequence.unmatched_rgb()
+            << ")\n"
+            << "camera " << camera_name << ": " << camera.describe() << "\n"
+            << "depth: " << args.depth_scale << " PNG units per metre\n";
   print_options(options, args);
   if (sequence.size() == 0) throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
 
@@ -360,6 +368,9 @@ void add_odometry_command(CLI::App& app) {
                   "motion to the reference frame");
   cmd->add_option("--camera", args->camera,
                   "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN)");
+  cmd->add_option("--depth-scale", args->depth_scale,
+                  "depth PNG units per metre (TUM RGB-D: 5000; many other RGB-D recordings: 1000)")
+      ->check(CLI::PositiveNumber);
   cmd->add_flag("--stereo", args->stereo,
                 "EuRoC stereo input: rectify, block-match, track the left view in disparity space");
   cmd->add_option("--block", args->block, "--stereo: matching window side (odd; default 9)");

@@ -94,4 +94,33 @@ TEST_F(CmdOdometry, RefusesAFramesLogThatIsTheTrajectoryOrAForeignFile) {
   EXPECT_EQ(slurp(dir_ / "notes.csv"), "my notes\n");
 }
 
+// --depth-scale: the depth PNGs' units per metre. The rendered folder is written in TUM's 5000;
+// read as 10000 every depth halves, and so does every translation (the rotations stay).
+TEST_F(CmdOdometry, DepthScaleScalesTheTranslations) {
+  const RunResult tum = odometry("--out " + path("tum.txt"));
+  ASSERT_EQ(tum.exit_code, 0) << tum.err;
+  const RunResult half = odometry("--out " + path("half.txt") + " --depth-scale 10000");
+  ASSERT_EQ(half.exit_code, 0) << half.err;
+  EXPECT_NE(half.err.find("depth: 10000 PNG units per metre"), std::string::npos) << half.err;
+  const auto a = kestrel::io::read_tum_trajectory(dir_ / "tum.txt");
+  const auto b = kestrel::io::read_tum_trajectory(dir_ / "half.txt");
+  ASSERT_EQ(a.size(), b.size());
+  double length_a = 0.0, length_b = 0.0, max_rotation_diff = 0.0;
+  for (std::size_t i = 1; i < a.size(); ++i) {
+    length_a += (a[i].T_world_body.translation() - a[i - 1].T_world_body.translation()).norm();
+    length_b += (b[i].T_world_body.translation() - b[i - 1].T_world_body.translation()).norm();
+    max_rotation_diff =
+        std::max(max_rotation_diff,
+                 (a[i].T_world_body.so3().inverse() * b[i].T_world_body.so3()).log().norm());
+  }
+  ASSERT_GT(length_a, 1e-3);
+  EXPECT_NEAR(length_b / length_a, 0.5, 0.05);
+  EXPECT_LT(max_rotation_diff, 0.01);  // rad
+
+  const RunResult zero = odometry("--out " + path("z.txt") + " --depth-scale 0");
+  EXPECT_NE(zero.exit_code, 0);
+  EXPECT_NE(zero.err.find("--depth-scale"), std::string::npos) << zero.err;
+  EXPECT_FALSE(fs::exists(dir_ / "z.txt"));
+}
+
 }  // namespace
