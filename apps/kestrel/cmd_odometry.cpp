@@ -40,7 +40,7 @@ struct OdometryArgs {
   std::filesystem::path config;
   std::filesystem::path frames;  // --frames: per-frame health CSV
   std::string camera;
-  double depth_scale = io::TumRgbdOptions{}.depth_scale;  // depth PNG units per metre
+  std::optional<double> depth_scale;  // --depth-scale: depth PNG units per metre
   bool force = false;
   bool quiet = false;
   // --stereo: an EuRoC folder, block-matched and tracked in disparity space.
@@ -190,7 +190,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
     throw InputError("--camera: not used with --stereo (the rig comes from the EuRoC folder's "
                      "cam0/cam1 sensor.yaml)");
   }
-  if (args.depth_scale != io::TumRgbdOptions{}.depth_scale) {
+  if (args.depth_scale) {
     throw InputError("--depth-scale: not used with --stereo (depth comes from the disparity)");
   }
   const odometry::DirectTrackerOptions options =
@@ -295,14 +295,14 @@ void run_odometry(const OdometryArgs& args) {
   // Refuse to overwrite someone else's file before doing the work.
   io::check_can_write_file(args.out, kCommand, args.force);
   io::TumRgbdOptions sequence_options;
-  sequence_options.depth_scale = args.depth_scale;
+  sequence_options.depth_scale = args.depth_scale.value_or(sequence_options.depth_scale);
   const io::TumRgbdSequence sequence(args.dataset, sequence_options);
 
   std::cerr << "kestrel odometry: dataset=" << args.dataset.string()
             << " frames=" << sequence.size() << " (unmatched rgb: " << sequence.unmatched_rgb()
             << ")\n"
             << "camera " << camera_name << ": " << camera.describe() << "\n"
-            << "depth: " << args.depth_scale << " PNG units per metre\n";
+            << "depth: " << sequence_options.depth_scale << " PNG units per metre\n";
   print_options(options, args);
   if (sequence.size() == 0) throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
 

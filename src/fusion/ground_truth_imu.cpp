@@ -117,10 +117,10 @@ std::vector<io::ImuSample> imu_from_ground_truth(std::vector<GroundTruthSample>&
       throw InputError("synthetic IMU: time stamps not increasing at " + std::to_string(t));
     }
     const double dt = imu.empty() ? 0.0 : ns_to_s(t - imu.back().t_ns);
-    io::ImuSample s;
-    s.t_ns = t;
-    s.gyro_rad_s = spline.body_rate(t);
-    s.accel_m_s2 = spline.orientation(t).inverse() * (spline.acceleration(t) - g_world);
+    // The spline's state as a simulated flight's: the simulator's ideal IMU reads it.
+    const FlightPoint point{SE3(spline.orientation(t), spline.position(t)), spline.velocity(t),
+                            spline.acceleration(t), spline.body_rate(t)};
+    io::ImuSample s = ideal_imu_sample(point, t, g_world);
     if (options.noise_on && dt > 0.0) {
       add_imu_errors(s, bg, ba, options.noise, dt, true, rng);  // the simulator's sensor model
     } else {  // the first sample: its biases, no interval for noise or walk

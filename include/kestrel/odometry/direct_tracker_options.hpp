@@ -81,9 +81,10 @@ struct DirectTrackerOptions {
   /// Sample the current image bicubically (Catmull-Rom) on the finest level, bilinearly on the
   /// others. Bilinear sampling's derivative jumps at integer pixel positions, where a still or
   /// hovering camera's points land, and the level there ends at the kink short of the noise
-  /// floor; the C1 bicubic cost has no kink. Off by default: it makes the warp 3x dearer
-  /// (+1.6 ms per fr1 frame, over the 10 ms budget on this machine) for a still camera's last
-  /// hundredth of a millimetre (docs/odometry.md, "Still camera").
+  /// floor; the C1 bicubic cost has no kink. Off by default: the warp is 3x dearer (+0.3 to
+  /// +1.6 ms per fr1 frame on the machines measured), fr1/rpy's rotation slightly worse, and the
+  /// rolling-shutter test's model result falls outside its bound with it, for a still camera's
+  /// last hundredth of a millimetre (docs/odometry.md, "Still camera" and the last section).
   bool bicubic_finest_level = false;
 
   // --- motion prior and keyframes (thesis 5.2 future work) ---
