@@ -9,8 +9,9 @@
 
 namespace kestrel::image {
 
-RollingShutterRectifier::RollingShutterRectifier(const PinholeCamera& camera, double readout_s)
-    : camera_(camera), readout_s_(readout_s) {
+RollingShutterRectifier::RollingShutterRectifier(const PinholeCamera& camera, double readout_s,
+                                                 RectifierInterpolation interpolation)
+    : camera_(camera), readout_s_(readout_s), interpolation_(interpolation) {
   if (!std::isfinite(readout_s) || readout_s <= 0.0) {
     throw std::invalid_argument("RollingShutterRectifier: readout time must be finite and > 0");
   }
@@ -60,7 +61,9 @@ void RollingShutterRectifier::set_rotation_rate(const Eigen::Vector3d& omega_rad
 }
 
 void RollingShutterRectifier::rectify_intensity(const cv::Mat& raw, cv::Mat& out) const {
-  cv::remap(raw, out, map_x_, map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  const int method =
+      interpolation_ == RectifierInterpolation::kBicubic ? cv::INTER_CUBIC : cv::INTER_LINEAR;
+  cv::remap(raw, out, map_x_, map_y_, method, cv::BORDER_REPLICATE);
 }
 
 void RollingShutterRectifier::rectify_depth(const cv::Mat& raw, cv::Mat& out) const {

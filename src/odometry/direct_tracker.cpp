@@ -113,7 +113,11 @@ struct DirectTracker::Impl {
   bool rs_frame_rectified = false, rs_prev_rectified = false, rs_ref_rectified = false;
 
   Impl(const PinholeCamera& cam, const DirectTrackerOptions& o) : undistorter(cam) {
-    if (o.rolling_shutter_readout_s > 0.0) rolling_shutter.emplace(cam, o.rolling_shutter_readout_s);
+    if (o.rolling_shutter_readout_s > 0.0) {
+      rolling_shutter.emplace(cam, o.rolling_shutter_readout_s,
+                              o.bicubic_finest_level ? image::RectifierInterpolation::kBicubic
+                                                     : image::RectifierInterpolation::kBilinear);
+    }
   }
 
   // The current frame's images and pyramid from the raw ones, undistorted and rectified for the

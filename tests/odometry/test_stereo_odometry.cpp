@@ -69,7 +69,7 @@ TEST(StereoOdometryExperiment, CorridorPassiveVsActive) {
 // uniform paint), swaying sideways: here passive stereo finds too few disparities (the
 // wall-floor and wall-ceiling junctions and the lights' highlights) and its odometry fails where
 // the active sensor's depth lets the same tracker follow. At test size (160x120, 45 frames over
-// 6 s) measured: passive 5 failures, ATE 0.119 m; active-depth 0 failures, ATE 0.026 m over
+// 6 s) measured: passive 4 failures, ATE 0.118 m; active-depth 0 failures, ATE 0.028 m over
 // 1.39 m (full size: docs/stereo.md).
 TEST(StereoOdometryExperiment, BareCorridorPassiveFailsWhereActiveDepthFollows) {
   StereoOdometryExperimentOptions o = small_corridor();

@@ -14,12 +14,21 @@
 
 namespace kestrel::image {
 
+/// How the intensity is resampled. It should match how the tracker samples the rectified images
+/// (DirectTrackerOptions::bicubic_finest_level): both images of a pair are resampled through
+/// different maps, so each pixel is smoothed by an amount that depends on its fractional source
+/// position, and a tracker sampling more sharply than the rectifier sees that pattern as
+/// structure (docs/odometry.md, "Rolling shutter": rendered test 0.111 deg bilinear/bilinear,
+/// 0.101 cubic/bicubic, 0.169 and 0.189 deg mixed).
+enum class RectifierInterpolation { kBilinear, kBicubic };
+
 class RollingShutterRectifier {
  public:
   /// `camera`: the raw images' camera (with its lens distortion, if any); the output images
   /// are those of camera.without_distortion(). `readout_s`: time from the first row's exposure
   /// to the last row's (> 0). Throws std::invalid_argument otherwise.
-  RollingShutterRectifier(const PinholeCamera& camera, double readout_s);
+  RollingShutterRectifier(const PinholeCamera& camera, double readout_s,
+                          RectifierInterpolation interpolation = RectifierInterpolation::kBilinear);
 
   /// Builds the maps for the rotation rate `omega_rad_s` (camera frame, right-multiplied:
   /// R_world_cam(t) = R_world_cam(t_mid) exp(omega (t - t_mid))). Row v was exposed at
@@ -28,7 +37,8 @@ class RollingShutterRectifier {
   /// change of row a fraction of one). A zero rate gives the plain undistortion maps.
   void set_rotation_rate(const Eigen::Vector3d& omega_rad_s);
 
-  /// Bilinear resampling (replicated border) of a raw intensity image.
+  /// Bilinear or bicubic (OpenCV's, a = -0.75) resampling, replicated border, of a raw
+  /// intensity image.
   void rectify_intensity(const cv::Mat& raw, cv::Mat& out) const;
   /// Nearest-neighbour resampling of a raw depth map (0 outside): interpolating depth would
   /// invent surfaces between foreground and background.
@@ -37,6 +47,7 @@ class RollingShutterRectifier {
  private:
   PinholeCamera camera_;
   double readout_s_ = 0.0;
+  RectifierInterpolation interpolation_ = RectifierInterpolation::kBilinear;
   cv::Mat map_x_, map_y_;  // CV_32FC1, the image's size: output pixel -> raw pixel
 };
 

@@ -81,11 +81,12 @@ struct DirectTrackerOptions {
   /// Sample the current image bicubically (Catmull-Rom) on the finest level, bilinearly on the
   /// others. Bilinear sampling's derivative jumps at integer pixel positions, where a still or
   /// hovering camera's points land, and the level there ends at the kink short of the noise
-  /// floor; the C1 bicubic cost has no kink. Off by default: the warp is 3x dearer (+0.3 to
-  /// +1.6 ms per fr1 frame on the machines measured), fr1/rpy's rotation slightly worse, and the
-  /// rolling-shutter test's model result falls outside its bound with it, for a still camera's
-  /// last hundredth of a millimetre (docs/odometry.md, "Still camera" and the last section).
-  bool bicubic_finest_level = false;
+  /// floor; the C1 bicubic cost has none: the still-camera target (< 0.1 mm on every frame) is
+  /// met with it and missed without it (0.113 mm). On by default since 2026-12-02: +0.3 ms per
+  /// fr1 frame; fr1/rpy 2.063 deg/s against 2.044 bilinear, inside the run-to-run spread. The
+  /// rolling-shutter rectifier resamples with the matching kernel (RectifierInterpolation)
+  /// (docs/odometry.md, "Still camera").
+  bool bicubic_finest_level = true;
 
   // --- motion prior and keyframes (thesis 5.2 future work) ---
   bool constant_velocity_prior = true;  ///< initial guess: the last motion, scaled by dt
