@@ -82,7 +82,7 @@ struct DirectTrackerOptions {
   /// others. Bilinear sampling's derivative jumps at integer pixel positions, where a still or
   /// hovering camera's points land, and the level there ends at the kink short of the noise
   /// floor; the C1 bicubic cost has none: the still-camera target (< 0.1 mm on every frame) is
-  /// met with it and missed without it (0.113 mm). On by default since 2026-12-02: +0.3 ms per
+  /// met with it and missed without it (0.113 mm). On by default since 2026-12-02: +0.4 ms per
   /// fr1 frame; fr1/rpy 2.063 deg/s against 2.044 bilinear, inside the run-to-run spread. The
   /// rolling-shutter rectifier resamples with the matching kernel (RectifierInterpolation)
   /// (docs/odometry.md, "Still camera").
