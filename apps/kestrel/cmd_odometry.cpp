@@ -39,6 +39,7 @@ struct OdometryArgs {
   std::filesystem::path out;
   std::filesystem::path config;
   std::filesystem::path frames;  // --frames: per-frame health CSV
+  std::filesystem::path plot_dir;  // --plot: the evaluation's CSVs and figures (needs ground truth)
   std::string camera;
   std::optional<double> depth_scale;  // --depth-scale: depth PNG units per metre
   bool force = false;
@@ -132,14 +133,37 @@ std::string failure_line(std::size_t i, const odometry::TrackResult& r) {
          "): " + std::string(odometry::to_string(r.failure)) + ": " + r.failure_detail;
 }
 
-void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory) {
+void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory,
+                        const OdometryArgs& args) {
   try {
     const eval::Evaluation evaluation = eval::evaluate(gt, trajectory, eval::EvaluationOptions{});
     std::cout << eval::format_report(evaluation);
+    // --plot: the same files as `kestrel evaluate --plot` (the folder was claimed before the run).
+    if (!args.plot_dir.empty()) {
+      for (const auto& path : eval::write_evaluation_files(args.plot_dir, gt, trajectory,
+                                                           evaluation, kCommand, args.force)) {
+        std::cout << "wrote " << path.string() << "\n";
+      }
+    }
     std::cout << eval::format_summary_line(evaluation) << std::endl;
   } catch (const InputError& e) {
+    // Asked for (--plot), the evaluation's failure is the run's error; otherwise a note.
+    if (!args.plot_dir.empty()) {
+      throw InputError("--plot " + args.plot_dir.string() + ": no evaluation (the trajectory " +
+                       args.out.string() + " is written): " + e.what());
+    }
     std::cerr << "kestrel odometry: evaluation skipped: " << e.what() << "\n";
   }
+}
+
+// --plot needs ground truth; the folder is claimed before the run, not after it.
+void check_plot_dir(const OdometryArgs& args, bool has_groundtruth) {
+  if (args.plot_dir.empty()) return;
+  if (!has_groundtruth) {
+    throw InputError("--plot " + args.plot_dir.string() + ": " + args.dataset.string() +
+                     " has no ground truth to evaluate against");
+  }
+  io::claim_output_dir(args.plot_dir, kCommand, args.force);
 }
 
 // The block matcher's options: the YAML file (if any), then the flags given.
@@ -214,6 +238,9 @@ void run_stereo_odometry(const OdometryArgs& args) {
                                              "time stamps in mav0/cam0/data.csv, mav0/cam1/data.csv)");
   }
 
+  const Trajectory gt = rectified_camera_groundtruth(sequence, stereo.R_rect_left());
+  check_plot_dir(args, !gt.empty());
+
   Trajectory trajectory;
   trajectory.reserve(sequence.stereo_size());
   std::vector<double> ms, match_ms;
@@ -252,10 +279,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
             << " failures, mean disparity fill "
             << 100.0 * fill_sum / static_cast<double>(sequence.stereo_size()) << " %)\n";
   for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
-  if (const Trajectory gt = rectified_camera_groundtruth(sequence, stereo.R_rect_left());
-      !gt.empty()) {
-    evaluate_and_print(gt, trajectory);
-  }
+  if (!gt.empty()) evaluate_and_print(gt, trajectory, args);
   print_summary(ms, sequence.stereo_size(), failures);
 }
 
@@ -305,6 +329,8 @@ void run_odometry(const OdometryArgs& args) {
             << "depth: " << sequence_options.depth_scale << " PNG units per metre\n";
   print_options(options, args);
   if (sequence.size() == 0) throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
+  const auto gt = sequence.groundtruth();
+  check_plot_dir(args, gt.has_value());
 
   odometry::DirectTracker tracker(camera, options);
   Trajectory trajectory;
@@ -341,7 +367,7 @@ void run_odometry(const OdometryArgs& args) {
             << " by the geometric fallback)\n";
   for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
 
-  if (const auto gt = sequence.groundtruth()) evaluate_and_print(*gt, trajectory);
+  if (gt) evaluate_and_print(*gt, trajectory, args);
   print_summary(ms, sequence.size(), failures);
 }
 
@@ -366,6 +392,9 @@ void add_odometry_command(CLI::App& app) {
                   "per-frame log (CSV): health (converged, iterations, sigma, inlier ratio, "
                   "keyframe, fallback, failure), tracking ms and the reported 1-sigma of the "
                   "motion to the reference frame");
+  cmd->add_option("--plot", args->plot_dir,
+                  "folder for the evaluation's per-axis and RPE CSVs, the aligned estimate and PNG "
+                  "figures, as `kestrel evaluate --plot` (needs the folder's ground truth)");
   cmd->add_option("--camera", args->camera,
                   "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN)");
   cmd->add_option("--depth-scale", args->depth_scale,

@@ -123,4 +123,47 @@ TEST_F(CmdOdometry, DepthScaleScalesTheTranslations) {
   EXPECT_FALSE(fs::exists(dir_ / "z.txt"));
 }
 
+// --plot DIR: the evaluation's files (as `kestrel evaluate --plot`) next to the run; refused,
+// before any work, without ground truth or over a folder Kestrel did not write.
+TEST_F(CmdOdometry, PlotWritesTheEvaluationFilesAndNeedsGroundTruth) {
+  // The fixture's 6 frames span 0.17 s: too short for the 1 s RPE windows, an error with --plot.
+  const RunResult short_run = odometry("--out " + path("s.txt") + " --plot " + path("plots"));
+  EXPECT_NE(short_run.exit_code, 0);
+  EXPECT_NE(short_run.err.find("--plot"), std::string::npos) << short_run.err;
+  EXPECT_NE(short_run.err.find("RPE"), std::string::npos) << short_run.err;
+  EXPECT_TRUE(fs::exists(dir_ / "s.txt"));
+
+  const RunResult render = kestrel::test::run_kestrel(
+      dir_, "render --scene office --trajectory handheld --seed 2 --frames 40 --camera " +
+                path("small.yaml") + " --out " + path("seq40"));
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  const RunResult r = kestrel::test::run_kestrel(
+      dir_, "odometry " + path("seq40") + " --camera " + path("small.yaml") + " --out " +
+                path("p.txt") + " --plot " + path("plots"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* name :
+       {"axis_errors.csv", "rpe.csv", "est_aligned.txt", "rpe.png", "top_view.png", "yaw.png"}) {
+    EXPECT_TRUE(fs::exists(dir_ / "plots" / name)) << name;
+    EXPECT_NE(r.out.find((dir_ / "plots" / name).string()), std::string::npos) << r.out;
+  }
+  EXPECT_NE(r.out.find("ate_rmse_m="), std::string::npos) << r.out;
+
+  fs::create_directories(dir_ / "mine");
+  { std::ofstream(dir_ / "mine" / "keep.txt") << "mine\n"; }
+  const RunResult foreign = odometry("--out " + path("f.txt") + " --plot " + path("mine"));
+  EXPECT_NE(foreign.exit_code, 0);
+  EXPECT_NE(foreign.err.find("mine"), std::string::npos) << foreign.err;
+  EXPECT_EQ(slurp(dir_ / "mine" / "keep.txt"), "mine\n");
+  EXPECT_FALSE(fs::exists(dir_ / "f.txt"));
+
+  ASSERT_TRUE(fs::exists(dir_ / "seq" / "groundtruth.txt"));
+  fs::remove(dir_ / "seq" / "groundtruth.txt");
+  const RunResult no_gt = odometry("--out " + path("n.txt") + " --plot " + path("plots2"));
+  EXPECT_NE(no_gt.exit_code, 0);
+  EXPECT_NE(no_gt.err.find("--plot"), std::string::npos) << no_gt.err;
+  EXPECT_NE(no_gt.err.find("no ground truth"), std::string::npos) << no_gt.err;
+  EXPECT_FALSE(fs::exists(dir_ / "plots2"));
+  EXPECT_FALSE(fs::exists(dir_ / "n.txt"));
+}
+
 }  // namespace
