@@ -799,8 +799,8 @@ struct AlignRunner {
         }
       };
 
-      // bicubic_finest_level: Catmull-Rom sampling on the finest level (alignment_kernels.hpp).
-      const kernels::Sampling sampling = finest && o.bicubic_finest_level
+      // bicubic_finest_level / bicubic_coarse_levels: Catmull-Rom sampling (alignment_kernels.hpp).
+      const kernels::Sampling sampling = (finest ? o.bicubic_finest_level : o.bicubic_coarse_levels)
                                              ? kernels::Sampling::kBicubic
                                              : kernels::Sampling::kBilinear;
       for (int it = 0; it < max_iter; ++it) {

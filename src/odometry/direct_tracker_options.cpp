@@ -41,6 +41,7 @@ void visit_fields(DirectTrackerOptions& o, Visitor&& v) {
   v("max_iterations_coarse", o.max_iterations_coarse);
   v("stop_on_cost_increase", o.stop_on_cost_increase);
   v("bicubic_finest_level", o.bicubic_finest_level);
+  v("bicubic_coarse_levels", o.bicubic_coarse_levels);
   v("constant_velocity_prior", o.constant_velocity_prior);
   v("use_keyframes", o.use_keyframes);
   v("keyframe_min_overlap", o.keyframe_min_overlap);
