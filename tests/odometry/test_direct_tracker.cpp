@@ -1,12 +1,15 @@
 // DirectTracker on rendered scenes: known motions, gain/bias, occluders, noise, failures,
 // bad input; and the analytic Jacobian against central differences.
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <iostream>
-#include <random>
-
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <set>
+#include <string>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/interpolation.hpp"
@@ -402,6 +405,21 @@ TEST(DirectTracker, BadInputIsReportedNotCrashed) {
   EXPECT_EQ(r.failure, TrackFailure::kTooFewPoints);
   r = fresh.track(good);  // starts again from the next usable frame
   EXPECT_TRUE(r.ok());
+}
+
+// config/tracker_default.yaml, the file users copy, holds every option at its default value.
+TEST(ShippedConfig, TrackerYamlEqualsTheDefaultsAndListsEveryOption) {
+  const std::filesystem::path file =
+      std::filesystem::path(KESTREL_SOURCE_DIR) / "config" / "tracker_default.yaml";
+  EXPECT_EQ(DirectTrackerOptions::load(file).to_yaml(), DirectTrackerOptions{}.to_yaml());
+  std::set<std::string> shipped, defaults;
+  for (const auto& kv : YAML::LoadFile(file.string())["tracker"]) {
+    shipped.insert(kv.first.as<std::string>());
+  }
+  for (const auto& kv : YAML::Load(DirectTrackerOptions{}.to_yaml())) {
+    defaults.insert(kv.first.as<std::string>());
+  }
+  EXPECT_EQ(shipped, defaults);
 }
 
 TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
