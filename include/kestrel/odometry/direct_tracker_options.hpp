@@ -88,9 +88,10 @@ struct DirectTrackerOptions {
   /// (docs/odometry.md, "Still camera").
   bool bicubic_finest_level = true;
   /// The same on the coarser levels (their cost has the same kink). Off by default: on fr1/rpy
-  /// part 1 every start of the 4-start mean improves (2.078 -> 2.006 deg/s, 0.0275 -> 0.0282 m/s)
-  /// for +0.5 ms per frame, but the disparity-space (stereo) runs get worse (rendered corridor,
-  /// forward, active-depth ATE 0.028 -> 0.182 m) (docs/odometry.md, "Default since 2026-12-02").
+  /// part 1 the 4-start mean goes 2.078 -> 2.006 deg/s (0.0275 -> 0.0282 m/s, +0.5 ms per frame),
+  /// but bicubic on only some coarse levels spreads it over 2.07-2.19 (no trend), and the
+  /// disparity-space (stereo) runs get worse (rendered corridor, forward, active-depth ATE
+  /// 0.028 -> 0.182 m) (docs/odometry.md, "Default since 2026-12-02").
   bool bicubic_coarse_levels = false;
 
   // --- motion prior and keyframes (thesis 5.2 future work) ---
