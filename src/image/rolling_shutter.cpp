@@ -10,7 +10,7 @@
 namespace kestrel::image {
 
 RollingShutterRectifier::RollingShutterRectifier(const PinholeCamera& camera, double readout_s,
-                                                 RectifierInterpolation interpolation)
+                                                 Interpolation interpolation)
     : camera_(camera), readout_s_(readout_s), interpolation_(interpolation) {
   if (!std::isfinite(readout_s) || readout_s <= 0.0) {
     throw std::invalid_argument("RollingShutterRectifier: readout time must be finite and > 0");
@@ -61,8 +61,7 @@ void RollingShutterRectifier::set_rotation_rate(const Eigen::Vector3d& omega_rad
 }
 
 void RollingShutterRectifier::rectify_intensity(const cv::Mat& raw, cv::Mat& out) const {
-  const int method =
-      interpolation_ == RectifierInterpolation::kBicubic ? cv::INTER_CUBIC : cv::INTER_LINEAR;
+  const int method = interpolation_ == Interpolation::kBicubic ? cv::INTER_CUBIC : cv::INTER_LINEAR;
   cv::remap(raw, out, map_x_, map_y_, method, cv::BORDER_REPLICATE);
 }
 

@@ -47,6 +47,14 @@ double rotation_angle_deg(const SE3& T) {
   return T.so3().log().norm() * 180.0 / std::numbers::pi;
 }
 
+// How the current image is sampled on the finest or a coarser level (bicubic_finest_level,
+// bicubic_coarse_levels).
+image::Interpolation level_sampling(const DirectTrackerOptions& o, bool finest) {
+  return (finest ? o.bicubic_finest_level : o.bicubic_coarse_levels)
+             ? image::Interpolation::kBicubic
+             : image::Interpolation::kBilinear;
+}
+
 }  // namespace
 
 struct DirectTracker::Impl {
@@ -113,10 +121,9 @@ struct DirectTracker::Impl {
   bool rs_frame_rectified = false, rs_prev_rectified = false, rs_ref_rectified = false;
 
   Impl(const PinholeCamera& cam, const DirectTrackerOptions& o) : undistorter(cam) {
+    // The rectifier resamples as the finest level is sampled (rolling_shutter.hpp).
     if (o.rolling_shutter_readout_s > 0.0) {
-      rolling_shutter.emplace(cam, o.rolling_shutter_readout_s,
-                              o.bicubic_finest_level ? image::RectifierInterpolation::kBicubic
-                                                     : image::RectifierInterpolation::kBilinear);
+      rolling_shutter.emplace(cam, o.rolling_shutter_readout_s, level_sampling(o, true));
     }
   }
 
@@ -585,7 +592,7 @@ struct TrackerAccess {
     return count;
   }
 
-  // Warp + bilinear sample + residual for every reference point of level L under T_cur_ref.
+  // Warp + sample (`sampling`) + residual for every reference point of level L under T_cur_ref.
   // Returns the number of points that land inside the image.
   static int warp_residuals(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& cur,
                             const SE3& T_cur_ref, float alpha, float beta,
@@ -799,10 +806,7 @@ struct AlignRunner {
         }
       };
 
-      // bicubic_finest_level / bicubic_coarse_levels: Catmull-Rom sampling (alignment_kernels.hpp).
-      const kernels::Sampling sampling = (finest ? o.bicubic_finest_level : o.bicubic_coarse_levels)
-                                             ? kernels::Sampling::kBicubic
-                                             : kernels::Sampling::kBilinear;
+      const kernels::Sampling sampling = level_sampling(o, finest);
       for (int it = 0; it < max_iter; ++it) {
         inside = TrackerAccess::warp_residuals(m, L, cur, T, static_cast<float>(alpha),
                                                static_cast<float>(beta), sampling);

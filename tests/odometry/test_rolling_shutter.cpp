@@ -119,7 +119,7 @@ TEST(RollingShutter, ZeroRateMapsUndistortLikeTheUndistorter) {
 // With the defaults (bicubic finest level, so a bicubic rectifier) and with bilinear sampling
 // (a bilinear rectifier). Measured: 0.101 deg / 5.8 mm and 0.111 deg / 7.0 mm against the global
 // shutter model's 0.68 deg / 17-18 mm; a rectifier kernel that does not match the tracker's
-// sampling gives 0.17-0.19 deg (rolling_shutter.hpp, RectifierInterpolation).
+// sampling gives 0.17-0.19 deg (rolling_shutter.hpp, the constructor).
 class RollingShutterModel : public ::testing::TestWithParam<bool> {};
 
 TEST_P(RollingShutterModel, RecoversTheMotionThatAGlobalShutterModelBiases) {

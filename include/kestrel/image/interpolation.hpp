@@ -6,6 +6,12 @@
 
 namespace kestrel::image {
 
+/// How an image is sampled between pixel centres: by the tracker's warp (odometry/
+/// alignment_kernels.hpp: Catmull-Rom) and by the rolling-shutter rectification (OpenCV's cubic
+/// remap). Bilinear is continuous but its derivative jumps at every integer pixel position;
+/// bicubic is C1 (docs/odometry.md, "Still camera").
+enum class Interpolation { kBilinear, kBicubic };
+
 /// Bilinear sample of a row-major float image at (x, y), pixel centres at integers. The
 /// caller guarantees 0 <= x < width-1 and 0 <= y < height-1 (no bounds checks: hot loops).
 inline float sample_bilinear_unchecked(const float* data, int stride, float x, float y) {

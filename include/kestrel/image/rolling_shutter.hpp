@@ -11,24 +11,22 @@
 #include <opencv2/core.hpp>
 
 #include "kestrel/geometry/pinhole_camera.hpp"
+#include "kestrel/image/interpolation.hpp"
 
 namespace kestrel::image {
-
-/// How the intensity is resampled. It should match how the tracker samples the rectified images
-/// (DirectTrackerOptions::bicubic_finest_level): both images of a pair are resampled through
-/// different maps, so each pixel is smoothed by an amount that depends on its fractional source
-/// position, and a tracker sampling more sharply than the rectifier sees that pattern as
-/// structure (docs/odometry.md, "Rolling shutter": rendered test 0.111 deg bilinear/bilinear,
-/// 0.101 cubic/bicubic, 0.169 and 0.189 deg mixed).
-enum class RectifierInterpolation { kBilinear, kBicubic };
 
 class RollingShutterRectifier {
  public:
   /// `camera`: the raw images' camera (with its lens distortion, if any); the output images
   /// are those of camera.without_distortion(). `readout_s`: time from the first row's exposure
-  /// to the last row's (> 0). Throws std::invalid_argument otherwise.
+  /// to the last row's (> 0). Throws std::invalid_argument otherwise. `interpolation`: how the
+  /// intensity is resampled; it should match how the tracker samples the rectified images. Both
+  /// images of a pair go through different maps, so each pixel is smoothed by an amount that
+  /// depends on its fractional source position, and a tracker sampling more sharply than the
+  /// rectifier sees that pattern as structure (docs/odometry.md, "Rolling shutter": rendered test
+  /// 0.111 deg bilinear/bilinear, 0.101 bicubic/bicubic, 0.169 and 0.189 deg mixed).
   RollingShutterRectifier(const PinholeCamera& camera, double readout_s,
-                          RectifierInterpolation interpolation = RectifierInterpolation::kBilinear);
+                          Interpolation interpolation = Interpolation::kBilinear);
 
   /// Builds the maps for the rotation rate `omega_rad_s` (camera frame, right-multiplied:
   /// R_world_cam(t) = R_world_cam(t_mid) exp(omega (t - t_mid))). Row v was exposed at
@@ -47,7 +45,7 @@ class RollingShutterRectifier {
  private:
   PinholeCamera camera_;
   double readout_s_ = 0.0;
-  RectifierInterpolation interpolation_ = RectifierInterpolation::kBilinear;
+  Interpolation interpolation_ = Interpolation::kBilinear;
   cv::Mat map_x_, map_y_;  // CV_32FC1, the image's size: output pixel -> raw pixel
 };
 

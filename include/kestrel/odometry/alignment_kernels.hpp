@@ -14,6 +14,7 @@
 #endif
 
 #include "kestrel/geometry/se3.hpp"
+#include "kestrel/image/interpolation.hpp"
 #include "kestrel/odometry/warp_jacobian.hpp"  // Matrix8d, Vector8d
 
 namespace kestrel::odometry::kernels {
@@ -45,11 +46,10 @@ struct LevelImage {
   float fx = 0, fy = 0, cx = 0, cy = 0;
 };
 
-/// How the current image is sampled at a warped point. Bilinear is continuous but its derivative
-/// jumps at every integer pixel position, so the cost has a kink exactly where a still camera's
-/// points land; bicubic (Catmull-Rom, 4x4 taps, C1) has none (docs/odometry.md, "Still camera").
-/// Within one pixel of the border bicubic falls back to bilinear.
-enum class Sampling { kBilinear, kBicubic };
+/// How the current image is sampled at a warped point (image::Interpolation). With bilinear the
+/// cost has a kink exactly where a still camera's points land; bicubic (Catmull-Rom, 4x4 taps)
+/// has none. Within one pixel of the border bicubic falls back to bilinear.
+using Sampling = image::Interpolation;
 
 /// r_i = alpha I_cur(pi(T_cur_ref P_i)) + beta - I_ref,i for every point whose projection lies in
 /// [0, w-1) x [0, h-1) with Z > 1 mm (valid_i = 1); elsewhere r_i = 0, valid_i = 0. Returns the

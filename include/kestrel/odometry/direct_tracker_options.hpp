@@ -84,7 +84,7 @@ struct DirectTrackerOptions {
   /// floor; the C1 bicubic cost has none: the still-camera target (< 0.1 mm on every frame) is
   /// met with it and missed without it (0.113 mm). On by default since 2026-12-02: +0.4 ms per
   /// fr1 frame; fr1/rpy 2.063 deg/s against 2.044 bilinear, inside the run-to-run spread. The
-  /// rolling-shutter rectifier resamples with the matching kernel (RectifierInterpolation)
+  /// rolling-shutter rectifier resamples with the matching kernel (image::Interpolation)
   /// (docs/odometry.md, "Still camera").
   bool bicubic_finest_level = true;
   /// The same on the coarser levels (their cost has the same kink). Off by default: on fr1/rpy
