@@ -218,6 +218,23 @@ void BM_RobustSigma(benchmark::State& s) {
 }
 BENCHMARK(BM_RobustSigma);
 
+// The same median found near a hint (kernels::abs_median), as the Gauss-Newton loop calls it
+// with the last iteration's median: Arg 0 = no hint (pack + select all), 1 = a hint 5 % off the
+// median (inside the bracket), 2 = a hint 50 % off (outside: one counting pass, then all).
+void BM_AbsMedian(benchmark::State& s) {
+  KernelData d = warped_kernel_data();
+  std::vector<float> scratch(d.abs_residual.size());
+  const kernels::AbsMedian exact = kernels::abs_median(d.residual.data(), d.valid.data(),
+                                                       KernelData::kPoints, 0.0F, scratch.data());
+  const float hint = s.range(0) == 0 ? 0.0F : exact.median * (s.range(0) == 1 ? 1.05F : 1.5F);
+  for (auto _ : s) {
+    benchmark::DoNotOptimize(kernels::abs_median(d.residual.data(), d.valid.data(),
+                                                 KernelData::kPoints, hint, scratch.data()));
+  }
+  s.SetItemsProcessed(s.iterations() * KernelData::kPoints);
+}
+BENCHMARK(BM_AbsMedian)->Arg(0)->Arg(1)->Arg(2);
+
 // The 8-column weighted normal equations (36 terms of J^T W J and 8 of J^T W r per point).
 void BM_NormalEquations(benchmark::State& s) {
   KernelData d = warped_kernel_data();

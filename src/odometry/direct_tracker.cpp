@@ -783,6 +783,8 @@ struct AlignRunner {
       bool sigma_frozen = false;
       double geo_sigma = 0.0;
       bool geo_sigma_frozen = false;
+      // Last iteration's median |r| of each kind: where to look for this iteration's.
+      float median_hint = 0.0F, geo_median_hint = 0.0F;
       int geo_count = 0;
       double prev_cost = 0.0;
       double prev_step_norm = -1.0;
@@ -855,19 +857,20 @@ struct AlignRunner {
 
         // Robust scale (thesis eq. 3.40), frozen once it settles (thesis 3.10).
         if (!sigma_frozen) {
-          float* absr = m.abs_residual.data();
-          const int mvalid = kernels::gather_abs_valid(r, val, n, absr);
-          double s = robust_sigma(std::span<float>(absr, static_cast<std::size_t>(mvalid)), params);
+          const kernels::AbsMedian med =
+              kernels::abs_median(r, val, n, median_hint, m.abs_residual.data());
+          median_hint = med.median;
+          double s = robust_sigma_from_median(med.median, med.valid, params);
           s = std::max(s, o.min_sigma);
           if (it > 0 && std::fabs(s - sigma) < o.sigma_freeze_change) sigma_frozen = true;
           sigma = s;
         }
         // The geometric residuals' own robust scale, by the same rule (in metres).
         if (geo && !geo_sigma_frozen) {
-          float* absr = m.abs_residual.data();
-          const int mvalid =
-              kernels::gather_abs_valid(m.geo_residual.data(), m.geo_valid.data(), n, absr);
-          double s = robust_sigma(std::span<float>(absr, static_cast<std::size_t>(mvalid)), 6);
+          const kernels::AbsMedian med = kernels::abs_median(
+              m.geo_residual.data(), m.geo_valid.data(), n, geo_median_hint, m.abs_residual.data());
+          geo_median_hint = med.median;
+          double s = robust_sigma_from_median(med.median, med.valid, 6);
           // Not below the sensor's depth noise at this level's median depth: on exact (rendered)
           // or very clean depth the MAD of a misaligned pair counts the points whose residual
           // the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2 weights

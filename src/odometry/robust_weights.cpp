@@ -11,7 +11,12 @@ double robust_sigma(std::span<float> abs_residuals, int parameters) {
   // Upper median (the element at m/2): the thesis' "median" for large m; O(m) selection.
   auto mid = abs_residuals.begin() + m / 2;
   std::nth_element(abs_residuals.begin(), mid, abs_residuals.end());
-  return 1.4826 * (1.0 + 5.0 / static_cast<double>(m - parameters)) * static_cast<double>(*mid);
+  return robust_sigma_from_median(static_cast<double>(*mid), static_cast<int>(m), parameters);
+}
+
+double robust_sigma_from_median(double median_abs, int m, int parameters) {
+  if (m <= parameters) return 0.0;
+  return 1.4826 * (1.0 + 5.0 / static_cast<double>(m - parameters)) * median_abs;
 }
 
 }  // namespace kestrel::odometry

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -251,6 +252,55 @@ TEST(AlignmentKernels, AbsoluteResidualsOfValidPointsArePacked) {
   EXPECT_EQ(out[0], 1.0F);
   EXPECT_EQ(out[1], 3.0F);
   EXPECT_EQ(out[2], 5.0F);
+}
+
+// abs_median against packing + nth_element (what robust_sigma selects) for hints inside the
+// bracket, outside it on both sides, none and non-finite, on counts that are not a multiple of
+// the SIMD width, with ties and invalid points.
+TEST(AlignmentKernels, AbsMedianIsTheUpperMedianWhateverTheHint) {
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.0F, 0.05F);
+  std::bernoulli_distribution keep(0.8);
+  for (const int n : {1, 2, 7, 8, 9, 100, 6001}) {
+    for (const bool ties : {false, true}) {
+      std::vector<float> r(static_cast<std::size_t>(n)), scratch(r.size());
+      std::vector<std::uint8_t> valid(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        r[i] =
+            ties ? 0.01F * static_cast<float>(static_cast<int>(noise(rng) * 100.0F)) : noise(rng);
+        valid[i] = keep(rng) ? 1 : 0;
+      }
+      std::vector<float> packed(r.size());
+      const int m = gather_abs_valid(r.data(), valid.data(), n, packed.data());
+      packed.resize(static_cast<std::size_t>(m));
+      float expected = 0.0F;
+      if (m > 0) {
+        std::sort(packed.begin(), packed.end());
+        expected = packed[static_cast<std::size_t>(m / 2)];
+      }
+      for (const float hint :
+           {expected, expected * 1.05F, expected * 0.95F, expected * 3.0F, expected * 0.2F, 0.0F,
+            -1.0F, std::numeric_limits<float>::quiet_NaN(),
+            std::numeric_limits<float>::infinity()}) {
+        const AbsMedian got = abs_median(r.data(), valid.data(), n, hint, scratch.data());
+        EXPECT_EQ(got.valid, m) << "n " << n << " hint " << hint;
+        EXPECT_EQ(got.median, expected) << "n " << n << " ties " << ties << " hint " << hint;
+      }
+    }
+  }
+  const std::vector<float> r(5, 1.0F);
+  const std::vector<std::uint8_t> invalid(5, 0);
+  std::vector<float> scratch(5);
+  const AbsMedian none = abs_median(r.data(), invalid.data(), 5, 1.0F, scratch.data());
+  EXPECT_EQ(none.valid, 0);
+  EXPECT_EQ(none.median, 0.0F);
+}
+
+TEST(RobustSigma, FromTheMedianEqualsTheSelection) {
+  std::vector<float> r = {0.5F, 0.1F, 0.3F, 0.2F, 0.4F, 0.6F, 0.9F, 0.7F, 0.8F, 0.05F};
+  const double from_median = robust_sigma_from_median(0.5, static_cast<int>(r.size()), 6);
+  EXPECT_DOUBLE_EQ(robust_sigma(r, 6), from_median);
+  EXPECT_EQ(robust_sigma_from_median(0.5, 6, 6), 0.0);  // m <= p: no estimate
 }
 
 template <int C>

@@ -82,6 +82,21 @@ WeightSums tukey_weights(const float* residual, const std::uint8_t* valid, int c
 /// robust_sigma, thesis eq. 3.40).
 int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count, float* out);
 
+struct AbsMedian {
+  float median = 0.0F;  ///< the element at m / 2 of the valid points' sorted |r| (0 if m = 0)
+  int valid = 0;        ///< m, the number of valid points
+};
+/// The upper median of |r_i| over the valid points, what robust_sigma selects (thesis eq. 3.40),
+/// found near `hint` (> 0: a guess of it, e.g. the last iteration's median; <= 0: none). One pass
+/// counts the valid points below a bracket around the hint and packs the few inside it into
+/// `scratch` (room for `count`), and the selection runs on those alone; where the median is not
+/// in the bracket all |r| are packed and selected, as gather_abs_valid + robust_sigma do. The
+/// result is the same element either way; the hint only saves the O(m) selection over all
+/// points, which the Gauss-Newton loop would otherwise run every iteration (its sigma changes
+/// little once the level is near its optimum).
+AbsMedian abs_median(const float* residual, const std::uint8_t* valid, int count, float hint,
+                     float* scratch);
+
 #if defined(__AVX2__) && defined(__FMA__)
 namespace detail {
 

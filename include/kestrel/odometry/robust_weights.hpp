@@ -27,4 +27,7 @@ inline float tukey_cost(float u, float c) {
 /// `abs_residuals` (reordered in place: nth_element), p = `parameters`. 0 for m <= p.
 double robust_sigma(std::span<float> abs_residuals, int parameters);
 
+/// The same sigma from the upper median of the m absolute residuals (kernels::abs_median).
+double robust_sigma_from_median(double median_abs, int m, int parameters);
+
 }  // namespace kestrel::odometry
