@@ -15,7 +15,7 @@
 namespace kestrel::cli {
 namespace {
 
-constexpr const char* kCommand = "evaluate";
+constexpr const char* kEvaluateCommand = "evaluate";
 
 struct EvaluateArgs {
   std::filesystem::path gt_path;
@@ -54,7 +54,7 @@ void run_evaluate(const EvaluateArgs& args) {
                      io::format_double(args.offset_s));
   }
   // Claim the output folder before the work, so that a refusal comes at once.
-  if (!args.plot_dir.empty()) io::claim_output_dir(args.plot_dir, kCommand, args.force);
+  if (!args.plot_dir.empty()) io::claim_output_dir(args.plot_dir, kEvaluateCommand, args.force);
 
   const Trajectory gt = load(args.gt_path, "ground truth");
   Trajectory est = load(args.est_path, "estimate");
@@ -73,8 +73,8 @@ void run_evaluate(const EvaluateArgs& args) {
 
   std::cout << eval::format_report(evaluation);
   if (!args.plot_dir.empty()) {
-    for (const auto& path :
-         eval::write_evaluation_files(args.plot_dir, gt, est, evaluation, kCommand, args.force)) {
+    for (const auto& path : eval::write_evaluation_files(args.plot_dir, gt, est, evaluation,
+                                                         kEvaluateCommand, args.force)) {
       std::cout << "wrote " << path.string() << "\n";
     }
   }

@@ -28,7 +28,7 @@ namespace kestrel::cli {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr const char* kCommand = "fuse";
+constexpr const char* kFuseCommand = "fuse";
 
 struct FuseArgs {
   fs::path imu_path, vo_path, vo_cov_path, calib_path, camera_calib_path, options_path, out_path;
@@ -157,8 +157,8 @@ void run_fuse(const FuseArgs& a) {
   if (!a.vo_frames_path.empty() && !a.vo_cov_path.empty()) {
     throw InputError("--vo-frames and --vo-cov exclude each other (the log has the covariances)");
   }
-  io::check_can_write_file(a.out_path, kCommand, a.force);
-  if (!a.states_path.empty()) io::check_can_write_file(a.states_path, kCommand, a.force);
+  io::check_can_write_file(a.out_path, kFuseCommand, a.force);
+  if (!a.states_path.empty()) io::check_can_write_file(a.states_path, kFuseCommand, a.force);
   if (!(a.vo_sigma_p_m > 0.0) || !(a.vo_sigma_rot_deg > 0.0)) {
     throw InputError("--vo-sigma-pos and --vo-sigma-rot-deg must be positive");
   }
@@ -232,7 +232,7 @@ void run_fuse(const FuseArgs& a) {
   std::ofstream states;
   if (!a.states_path.empty()) {
     states.open(a.states_path);
-    states << io::provenance_line(kCommand) << "\n"
+    states << io::provenance_line(kFuseCommand) << "\n"
            << "# t[s] p_x p_y p_z q_x q_y q_z q_w v_x v_y v_z bg_x bg_y bg_z ba_x ba_y ba_z "
               "sigma_p_x sigma_p_y sigma_p_z sigma_th_x sigma_th_y sigma_th_z flags\n";
   }
@@ -268,7 +268,7 @@ void run_fuse(const FuseArgs& a) {
                      std::to_string(options.static_init_s) +
                      " s, so the static initialisation did not happen; give --init FILE");
   }
-  io::write_tum_trajectory(a.out_path, fused, kCommand, a.force);
+  io::write_tum_trajectory(a.out_path, fused, kFuseCommand, a.force);
   std::cerr << "kestrel fuse: " << engine.counters().describe() << "\n";
   std::cout << "fused poses: " << fused.size() << " (" << dropout_outputs
             << " flagged vo_dropout), accepted updates: " << engine.counters().updates_accepted

@@ -32,7 +32,7 @@
 namespace kestrel::cli {
 namespace {
 
-constexpr const char* kCommand = "odometry";
+constexpr const char* kOdometryCommand = "odometry";
 
 struct OdometryArgs {
   std::filesystem::path dataset;
@@ -76,7 +76,7 @@ class FrameLog {
     for (int r = 0; r < 6; ++r) {
       for (int c = r; c < 6; ++c) columns.push_back(io::frame_log_covariance_column(r, c));
     }
-    csv_.emplace(path, columns, kCommand, force);
+    csv_.emplace(path, columns, kOdometryCommand, force);
   }
 
   void add(std::size_t frame, const odometry::TrackResult& r, double track_ms) {
@@ -140,8 +140,8 @@ void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory,
     std::cout << eval::format_report(evaluation);
     // --plot: the same files as `kestrel evaluate --plot` (the folder was claimed before the run).
     if (!args.plot_dir.empty()) {
-      for (const auto& path : eval::write_evaluation_files(args.plot_dir, gt, trajectory,
-                                                           evaluation, kCommand, args.force)) {
+      for (const auto& path : eval::write_evaluation_files(
+               args.plot_dir, gt, trajectory, evaluation, kOdometryCommand, args.force)) {
         std::cout << "wrote " << path.string() << "\n";
       }
     }
@@ -163,7 +163,7 @@ void check_plot_dir(const OdometryArgs& args, bool has_groundtruth) {
     throw InputError("--plot " + args.plot_dir.string() + ": " + args.dataset.string() +
                      " has no ground truth to evaluate against");
   }
-  io::claim_output_dir(args.plot_dir, kCommand, args.force);
+  io::claim_output_dir(args.plot_dir, kOdometryCommand, args.force);
 }
 
 // The block matcher's options: the YAML file (if any), then the flags given.
@@ -221,7 +221,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
   const sensor::BlockMatcherOptions matching = matcher_options(args);
-  io::check_can_write_file(args.out, kCommand, args.force);
+  io::check_can_write_file(args.out, kOdometryCommand, args.force);
   const io::EurocSequence sequence(args.dataset);
   const sensor::StereoCalibration calibration = sensor::StereoCalibration::from_euroc(sequence);
   odometry::StereoOdometry stereo(calibration, matching, options);
@@ -273,7 +273,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
   }
   progress.finish();
   frame_log.close();
-  io::write_tum_trajectory(args.out, trajectory, kCommand, args.force);
+  io::write_tum_trajectory(args.out, trajectory, kOdometryCommand, args.force);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses of the "
             << "rectified left camera, " << keyframes << " keyframes, " << failures
             << " failures, mean disparity fill "
@@ -317,7 +317,7 @@ void run_odometry(const OdometryArgs& args) {
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
   // Refuse to overwrite someone else's file before doing the work.
-  io::check_can_write_file(args.out, kCommand, args.force);
+  io::check_can_write_file(args.out, kOdometryCommand, args.force);
   io::TumRgbdOptions sequence_options;
   sequence_options.depth_scale = args.depth_scale.value_or(sequence_options.depth_scale);
   const io::TumRgbdSequence sequence(args.dataset, sequence_options);
@@ -361,7 +361,7 @@ void run_odometry(const OdometryArgs& args) {
   }
   progress.finish();
   frame_log.close();
-  io::write_tum_trajectory(args.out, trajectory, kCommand, args.force);
+  io::write_tum_trajectory(args.out, trajectory, kOdometryCommand, args.force);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses, "
             << keyframes << " keyframes, " << failures << " failures, " << fallbacks
             << " by the geometric fallback)\n";

@@ -25,7 +25,7 @@ namespace kestrel::cli {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr const char* kCommand = "run";
+constexpr const char* kRunCommand = "run";
 
 struct RunArgs {
   fs::path config;
@@ -136,13 +136,13 @@ void run_run(const RunArgs& a) {
   }
   fs::path out_file = options.output;
   if (!a.out.empty()) {
-    io::claim_output_dir(a.out, kCommand, a.force);
+    io::claim_output_dir(a.out, kRunCommand, a.force);
     out_file = a.out / options.output;
   }
   fs::path controller_file = options.controller.output;
   if (!a.out.empty()) controller_file = a.out / options.controller.output;
-  io::check_can_write_file(out_file, kCommand, a.force);  // before the run, not after it
-  io::check_can_write_file(controller_file, kCommand, a.force);
+  io::check_can_write_file(out_file, kRunCommand, a.force);  // before the run, not after it
+  io::check_can_write_file(controller_file, kRunCommand, a.force);
   std::cerr << "kestrel run: config=" << a.config.string() << "\n  " << options.describe()
             << "\n  matcher: " << options.matcher.describe()
             << "\n  load average: " << load_average()
@@ -166,8 +166,8 @@ void run_run(const RunArgs& a) {
   for (const auto& s : report.states) {
     trajectory.push_back({s.t_ns, SE3(s.state.q_world_body, s.state.p_world)});
   }
-  io::write_tum_trajectory(out_file, trajectory, kCommand, a.force);
-  pipeline::write_controller_csv(controller_file, report.controller, kCommand, a.force);
+  io::write_tum_trajectory(out_file, trajectory, kRunCommand, a.force);
+  pipeline::write_controller_csv(controller_file, report.controller, kRunCommand, a.force);
   print_report(report);
   if (report.fusion_pass_through) {
     std::cout << "odometry trajectory (rectified left camera, NOT fused, " << trajectory.size()

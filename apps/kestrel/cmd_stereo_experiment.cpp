@@ -21,7 +21,7 @@ namespace kestrel::cli {
 namespace {
 namespace fs = std::filesystem;
 
-constexpr const char* kCommand = "stereo-experiment";
+constexpr const char* kStereoExperimentCommand = "stereo-experiment";
 
 struct ExperimentArgs {
   fs::path out;
@@ -53,16 +53,18 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  io::claim_output_dir(args.out, kCommand, args.force);
+  io::claim_output_dir(args.out, kStereoExperimentCommand, args.force);
   if (args.write_sequences) {
     o.write_sequences_to = args.out;
     o.force = true;  // inside the folder this command has just claimed
   }
   std::cerr << "kestrel stereo-experiment --odometry: " << o.describe() << "\n";
   const odometry::StereoOdometryExperimentResult r = odometry::run_stereo_odometry_experiment(o);
-  io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kCommand, true);
+  io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kStereoExperimentCommand,
+                           true);
   for (const auto& run : r.runs) {
-    io::write_tum_trajectory(args.out / (run.name + ".txt"), run.estimate, kCommand, true);
+    io::write_tum_trajectory(args.out / (run.name + ".txt"), run.estimate, kStereoExperimentCommand,
+                             true);
   }
   std::cout << "wrote " << args.out.string() << "/{groundtruth";
   for (const auto& run : r.runs) std::cout << "," << run.name;
@@ -116,7 +118,7 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  io::claim_output_dir(args.out, kCommand, args.force);
+  io::claim_output_dir(args.out, kStereoExperimentCommand, args.force);
   std::cerr << "kestrel stereo-experiment: " << args.options.describe() << "\n";
   const sensor::StereoExperimentResult r = sensor::run_stereo_experiment(args.options);
 

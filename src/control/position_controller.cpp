@@ -7,12 +7,12 @@
 
 #include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::control {
 
 namespace {
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 // Scales the horizontal part of v to at most `limit`; true if it did.
 bool limit_horizontal(Eigen::Vector3d& v, double limit) {

@@ -7,12 +7,12 @@
 
 #include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::control {
 
 namespace {
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 double finite_or(double v, double fallback) { return std::isfinite(v) ? v : fallback; }
 }  // namespace
 

@@ -5,14 +5,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "kestrel/core/units.hpp"
 #include "kestrel/eval/csv_writer.hpp"
 
 namespace kestrel::eval {
-namespace {
-constexpr double kPi = std::numbers::pi;
-constexpr double kRadToDeg = 180.0 / kPi;
-}  // namespace
-
 Eigen::Vector3d roll_pitch_yaw_zyx(const Eigen::Matrix3d& R) {
   // R = Rz(y) Ry(p) Rx(r): R(2,0) = -sin p, R(2,1) = cos p sin r, R(2,2) = cos p cos r,
   // R(1,0) = cos p sin y, R(0,0) = cos p cos y.

@@ -5,12 +5,12 @@
 #include <cstdio>
 #include <numbers>
 
+#include "kestrel/core/units.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 
 namespace kestrel::eval {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 }  // namespace
 

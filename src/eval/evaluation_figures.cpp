@@ -4,13 +4,13 @@
 #include <cstdio>
 #include <numbers>
 
+#include "kestrel/core/units.hpp"
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/eval/plot.hpp"
 
 namespace kestrel::eval {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 constexpr int kWidthPx = 900;
 constexpr int kPanelHeightPx = 320;
 const Rgb kGtColour{0, 0, 0};

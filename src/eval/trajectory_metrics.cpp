@@ -9,14 +9,13 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/eval/alignment.hpp"
 #include "kestrel/eval/csv_writer.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 
 namespace kestrel::eval {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 /// numpy.median: the middle value, or the mean of the two middle values.
 double median_of(std::vector<double> values) {

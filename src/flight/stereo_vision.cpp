@@ -7,13 +7,10 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "kestrel/core/stopwatch.hpp"
+
 namespace kestrel::flight {
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 sim::RenderOptions render_options(const StereoVisionOptions& o) {
   sim::RenderOptions r;

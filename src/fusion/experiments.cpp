@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/fusion/ground_truth_imu.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
@@ -21,7 +22,6 @@ namespace {
 using Eigen::Vector3d;
 namespace fs = std::filesystem;
 
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 constexpr const char* kSyntheticBiasReference = "the synthetic IMU's own (walking) gyro bias";
 
 std::vector<io::ImuSample> read_imu(const fs::path& csv) {

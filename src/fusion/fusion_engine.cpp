@@ -199,9 +199,20 @@ std::optional<NominalState> static_initial_state(const std::vector<io::ImuSample
 
 // ---------------------------------------------------------------- engine
 
-FusionEngine::FusionEngine(FusionOptions options) : options_(std::move(options)) {
-  options_.validate();
-  ekf_ = StochasticCloningEkf(options_.noise, Vector3d(0.0, 0.0, -options_.gravity_m_s2));
+namespace {
+
+const FusionOptions& validated(const FusionOptions& o) {
+  o.validate();
+  return o;
+}
+
+}  // namespace
+
+// The filter is built in place (not move-assigned in the body): GCC 12 flags the move of its
+// std::optional members as "may be used uninitialized" once the two files share a unity TU.
+FusionEngine::FusionEngine(FusionOptions options)
+    : options_(std::move(options)),
+      ekf_(validated(options_).noise, Vector3d(0.0, 0.0, -options_.gravity_m_s2)) {
   ekf_.set_first_estimate_jacobians(options_.first_estimate_jacobians);
   gate_chi2_ = options_.gate_probability > 0.0
                    ? chi_square_quantile(options_.gate_probability, 6.0)

@@ -6,17 +6,10 @@
 #include <stdexcept>
 
 #include "engines.hpp"
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/image/gradient.hpp"
 
 namespace kestrel::gpu {
-namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
-
 void pyramid_gaussian_taps(float k[3]) {
   // image::downsample_intensity: cv::GaussianBlur(5x5, sigma 1) builds this float kernel.
   const cv::Mat g = cv::getGaussianKernel(5, 1.0, CV_32F);

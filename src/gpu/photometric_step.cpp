@@ -7,16 +7,13 @@
 #include <stdexcept>
 
 #include "engines.hpp"
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/odometry/alignment_kernels.hpp"
 
 namespace kestrel::gpu {
 namespace {
 
 namespace kernels = odometry::kernels;
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 

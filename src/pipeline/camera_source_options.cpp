@@ -20,7 +20,8 @@ namespace fs = std::filesystem;
 using detail::path_in_config;
 
 // Field `camera.<key>` (an empty key names the block itself).
-InputError field_error(const fs::path& config, const std::string& key, const std::string& msg) {
+InputError camera_field_error(const fs::path& config, const std::string& key,
+                              const std::string& msg) {
   return detail::config_field_error(config, key.empty() ? "camera" : "camera." + key, msg);
 }
 
@@ -65,7 +66,8 @@ CameraSourceOptions CameraSourceOptions::from_yaml(const YAML::Node& map, const 
     try {
       if (key == "device") {
         o.device = v.as<std::string>();
-        if (o.device.empty()) throw field_error(config, key, "must name a video device node");
+        if (o.device.empty())
+          throw camera_field_error(config, key, "must name a video device node");
       } else if (key == "pixel_format") {
         o.camera.pixel_format = v.as<std::string>();
       } else if (key == "width") {
@@ -87,14 +89,15 @@ CameraSourceOptions CameraSourceOptions::from_yaml(const YAML::Node& map, const 
         const auto s = v.as<std::string>();
         const auto phase = driver::parse_bayer_phase(s);
         if (!phase)
-          throw field_error(config, key, "must be GRBG, RGGB, BGGR or GBRG, got '" + s + "'");
+          throw camera_field_error(config, key,
+                                   "must be GRBG, RGGB, BGGR or GBRG, got '" + s + "'");
         o.decoder.phase = *phase;
         decoder_keys.push_back(key);
       } else if (key == "demosaic") {
         const auto s = v.as<std::string>();
         const auto method = driver::parse_demosaic_method(s);
         if (!method)
-          throw field_error(config, key, "must be bilinear or edge-aware, got '" + s + "'");
+          throw camera_field_error(config, key, "must be bilinear or edge-aware, got '" + s + "'");
         o.decoder.demosaic = *method;
         decoder_keys.push_back(key);
       } else if (key == "decoder_options") {
@@ -108,26 +111,27 @@ CameraSourceOptions CameraSourceOptions::from_yaml(const YAML::Node& map, const 
         }
         have_calibration = true;
       } else {
-        throw field_error(config, key, "unknown camera source option");
+        throw camera_field_error(config, key, "unknown camera source option");
       }
     } catch (const YAML::Exception&) {
-      throw field_error(config, key, "has the wrong type");
+      throw camera_field_error(config, key, "has the wrong type");
     }
   }
   if (decoder_file) {
     if (!decoder_keys.empty()) {
-      throw field_error(config, "decoder_options",
-                        "excludes camera." + decoder_keys.front() + " (give one or the other)");
+      throw camera_field_error(
+          config, "decoder_options",
+          "excludes camera." + decoder_keys.front() + " (give one or the other)");
     }
     o.decoder = driver::StereoDecoderOptions::load_yaml(*decoder_file);
     // The file may carry the size (it is the frame's); the camera block's wins only if it agrees.
     if ((have_width && o.camera.width != o.decoder.width) ||
         (have_height && o.camera.height != o.decoder.height)) {
-      throw field_error(config, "decoder_options",
-                        decoder_file->string() + " is for " + std::to_string(o.decoder.width) +
-                            "x" + std::to_string(o.decoder.height) +
-                            " frames, camera.width/height say " + std::to_string(o.camera.width) +
-                            "x" + std::to_string(o.camera.height));
+      throw camera_field_error(
+          config, "decoder_options",
+          decoder_file->string() + " is for " + std::to_string(o.decoder.width) + "x" +
+              std::to_string(o.decoder.height) + " frames, camera.width/height say " +
+              std::to_string(o.camera.width) + "x" + std::to_string(o.camera.height));
     }
     o.camera.width = o.decoder.width;
     o.camera.height = o.decoder.height;
@@ -135,14 +139,15 @@ CameraSourceOptions CameraSourceOptions::from_yaml(const YAML::Node& map, const 
   o.decoder.width = o.camera.width;
   o.decoder.height = o.camera.height;
   if (!have_calibration) {
-    throw field_error(config, "calibration",
-                      "missing (the stereo calibration of the camera: Kestrel's stereo_pair YAML, "
-                      "an EuRoC folder, or [cam0 sensor.yaml, cam1 sensor.yaml])");
+    throw camera_field_error(
+        config, "calibration",
+        "missing (the stereo calibration of the camera: Kestrel's stereo_pair YAML, "
+        "an EuRoC folder, or [cam0 sensor.yaml, cam1 sensor.yaml])");
   }
   try {
     o.calibration = load_camera_calibration(o.calibration_files);
   } catch (const InputError& e) {
-    throw field_error(config, "calibration", e.what());
+    throw camera_field_error(config, "calibration", e.what());
   }
   o.validate(config);
   return o;
@@ -153,23 +158,24 @@ void CameraSourceOptions::validate(const fs::path& config) const {
     camera.validate();
   } catch (const std::invalid_argument& e) {
     // The driver's messages name the field ("camera: buffers must be in 2..32").
-    throw field_error(config, "", e.what());
+    throw camera_field_error(config, "", e.what());
   }
   try {
     decoder.validate();
   } catch (const std::invalid_argument& e) {
-    throw field_error(config, "", e.what());
+    throw camera_field_error(config, "", e.what());
   }
   if (!(timeout_s > 0.0) || !(timeout_s <= 3600.0)) {
-    throw field_error(config, "timeout_s", "must be in (0, 3600] s");
+    throw camera_field_error(config, "timeout_s", "must be in (0, 3600] s");
   }
-  if (!calibration) throw field_error(config, "calibration", "missing");
+  if (!calibration) throw camera_field_error(config, "calibration", "missing");
   const int w = calibration->left.width(), h = calibration->left.height();
   if (w != camera.width || h != camera.height) {
-    throw field_error(config, "calibration",
-                      "is for " + std::to_string(w) + "x" + std::to_string(h) +
-                          " images, the camera is asked for " + std::to_string(camera.width) + "x" +
-                          std::to_string(camera.height));
+    throw camera_field_error(config, "calibration",
+                             "is for " + std::to_string(w) + "x" + std::to_string(h) +
+                                 " images, the camera is asked for " +
+                                 std::to_string(camera.width) + "x" +
+                                 std::to_string(camera.height));
   }
 }
 

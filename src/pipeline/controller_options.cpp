@@ -8,6 +8,7 @@
 
 #include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::pipeline {
@@ -15,9 +16,9 @@ namespace kestrel::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 
-InputError field_error(const fs::path& config, const std::string& key, const std::string& msg) {
+InputError controller_field_error(const fs::path& config, const std::string& key,
+                                  const std::string& msg) {
   return detail::config_field_error(config, "controller." + key, msg);
 }
 
@@ -105,9 +106,9 @@ ControllerStageOptions ControllerStageOptions::from_yaml(const YAML::Node& node,
         throw InputError("unknown controller option");
       }
     } catch (const YAML::Exception&) {
-      throw field_error(config, key, "has the wrong type");
+      throw controller_field_error(config, key, "has the wrong type");
     } catch (const InputError& e) {
-      throw field_error(config, key, e.what());
+      throw controller_field_error(config, key, e.what());
     }
   }
   o.validate();

@@ -72,15 +72,6 @@ std::optional<fs::path> euroc_mav0(const std::string& calibration) {
                    "(mav0/cam0/sensor.yaml and mav0/cam1/sensor.yaml)");
 }
 
-/// What the covariance bookkeeping keeps of a tracked frame.
-struct FrameRecord {
-  TimeNs t_ns = 0;
-  SE3 T_world_cam;
-  Matrix6d cov_world = Matrix6d::Zero();  ///< left perturbation [v, w] in the tracker's world
-  Matrix6d cov_ref = Matrix6d::Zero();    ///< TrackResult::covariance (relative to its reference)
-  TimeNs ref_t_ns = 0;
-};
-
 }  // namespace
 
 CameraModel load_camera_model(const std::string& preset_or_path) {
@@ -105,6 +96,15 @@ std::string describe(const CameraModel& camera) {
 }
 
 struct OdometryCore::Impl {
+  /// What the covariance bookkeeping keeps of a tracked frame.
+  struct FrameRecord {
+    TimeNs t_ns = 0;
+    SE3 T_world_cam;
+    Matrix6d cov_world = Matrix6d::Zero();  ///< left perturbation [v, w] in the tracker's world
+    Matrix6d cov_ref = Matrix6d::Zero();    ///< TrackResult::covariance (relative to its reference)
+    TimeNs ref_t_ns = 0;
+  };
+
   OdometryCoreOptions options;
   odometry::DirectTrackerOptions tracker_options;
   sensor::BlockMatcherOptions matcher_options;

@@ -9,13 +9,11 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/random.hpp"
 
 namespace kestrel::sensor {
 namespace {
 
-/// Uniform in [0, 1) from the top 53 bits: the same numbers on every standard library.
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
-double uniform(std::mt19937_64& rng, double lo, double hi) { return lo + (hi - lo) * uniform01(rng); }
 int uniform_int(std::mt19937_64& rng, int lo, int hi) {  // inclusive
   return lo + static_cast<int>(std::floor(uniform01(rng) * (hi - lo + 1)));
 }

@@ -8,13 +8,10 @@
 
 #include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::sim {
-
-namespace {
-constexpr double kDegToRad = std::numbers::pi / 180.0;
-}  // namespace
 
 void FlightControllerModelOptions::validate() const {
   auto fail = [](const std::string& field, const std::string& why) {

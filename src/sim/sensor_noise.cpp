@@ -13,16 +13,14 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/random.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::sim {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 
 /// Standard normal deviates by Marsaglia and Tsang's ziggurat ("The Ziggurat Method for
 /// Generating Random Variables", J. Stat. Software 5(8), 2000; 128 layers), about five times

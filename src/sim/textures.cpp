@@ -7,15 +7,12 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/random.hpp"
 #include "kestrel/sim/texture.hpp"
 
 namespace kestrel::sim {
 
 namespace {
-
-/// Uniform double in [0, 1) from 53 random bits: the same on every platform (unlike
-/// std::uniform_real_distribution, whose algorithm is implementation-defined).
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 
 /// splitmix64: decorrelates nearby seeds (seed, seed + 1, ...) before seeding a generator.
 std::uint64_t mix_seed(std::uint64_t x) {

@@ -6,16 +6,13 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/random.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
 
 namespace kestrel::sim {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
-
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 
 /// A sinusoid that is 0 at t = 0: A sin(2 pi f t).
 ScalarFunction sine(double amplitude, double frequency_hz) {
@@ -85,18 +82,18 @@ SmoothTrajectory make_trajectory(std::string_view name, const SE3& T_world_start
     return {n,
             T_world_start,
             {one_minus_cos(1.0, 1.0 / 12.0), zero(), sine(0.02, 0.5)},
-            {zero(), zero(), sine(2.0 * kDeg, 0.2)}};
+            {zero(), zero(), sine(2.0 * kDegToRad, 0.2)}};
   }
   if (name == "circle") {
     constexpr double r = 0.4, f = 1.0 / 6.0;
     return {n,
             T_world_start,
             {sine(r, f), one_minus_cos(r, f), sine(0.05, 0.35)},
-            {zero(), sine(2.0 * kDeg, 0.27), sine(5.0 * kDeg, 0.3)}};
+            {zero(), sine(2.0 * kDegToRad, 0.27), sine(5.0 * kDegToRad, 0.3)}};
   }
   if (name == "orbit") {
     constexpr double d = 2.0;  // distance to the point kept in view
-    const ScalarFunction angle = sine(25.0 * kDeg, 1.0 / 8.0);
+    const ScalarFunction angle = sine(25.0 * kDegToRad, 1.0 / 8.0);
     // Body on a circle of radius d around (d, 0, 0), facing its centre: yaw = angle,
     // p = (d - d cos angle, -d sin angle); derivatives by the chain rule.
     ScalarFunction x = [angle](double t) {
@@ -112,16 +109,18 @@ SmoothTrajectory make_trajectory(std::string_view name, const SE3& T_world_start
     return {n, T_world_start, {x, y, sine(0.1, 0.2)}, {zero(), zero(), angle}};
   }
   if (name == "rpy") {
-    return {n,
-            T_world_start,
-            {sine(0.02, 0.37), sine(0.02, 0.29), sine(0.015, 0.43)},
-            {sine(12.0 * kDeg, 0.4), sine(10.0 * kDeg, 0.31), sine(15.0 * kDeg, 0.23)}};
+    return {
+        n,
+        T_world_start,
+        {sine(0.02, 0.37), sine(0.02, 0.29), sine(0.015, 0.43)},
+        {sine(12.0 * kDegToRad, 0.4), sine(10.0 * kDegToRad, 0.31), sine(15.0 * kDegToRad, 0.23)}};
   }
   if (name == "sway") {
-    return {n,
-            T_world_start,
-            {sine(0.15, 0.21), sine(0.2, 0.17), sine(0.1, 0.29)},
-            {sine(4.0 * kDeg, 0.25), sine(5.0 * kDeg, 0.19), sine(8.0 * kDeg, 0.15)}};
+    return {
+        n,
+        T_world_start,
+        {sine(0.15, 0.21), sine(0.2, 0.17), sine(0.1, 0.29)},
+        {sine(4.0 * kDegToRad, 0.25), sine(5.0 * kDegToRad, 0.19), sine(8.0 * kDegToRad, 0.15)}};
   }
   if (name == "handheld") {
     std::mt19937_64 rng(seed ^ 0x4A1DE1DULL);
@@ -131,8 +130,9 @@ SmoothTrajectory make_trajectory(std::string_view name, const SE3& T_world_start
       return add(std::move(walk), random_motion(rng, 4, 2.0, 4.0, tremor_rms));
     };
     ScalarFunction px = axis(0.15, 0.002), py = axis(0.15, 0.002), pz = axis(0.06, 0.002);
-    ScalarFunction roll = axis(3.0 * kDeg, 0.2 * kDeg), pitch = axis(4.0 * kDeg, 0.2 * kDeg),
-                   yaw = axis(8.0 * kDeg, 0.2 * kDeg);
+    ScalarFunction roll = axis(3.0 * kDegToRad, 0.2 * kDegToRad),
+                   pitch = axis(4.0 * kDegToRad, 0.2 * kDegToRad),
+                   yaw = axis(8.0 * kDegToRad, 0.2 * kDegToRad);
     return {n, T_world_start, {px, py, pz}, {roll, pitch, yaw}};
   }
   throw InputError("unknown trajectory '" + n + "' (valid: " + catalogue_names(kTrajectories) +

@@ -16,6 +16,19 @@
 
 namespace kestrel::test {
 
+/// A quadrotor hovering at p with the default parameters.
+inline sim::QuadrotorState hover_at(const Eigen::Vector3d& p) {
+  return sim::Quadrotor::hover_state(sim::QuadrotorParameters{}, p);
+}
+
+/// A fixed position reference at p, heading yaw.
+inline control::PositionReference point(const Eigen::Vector3d& p, double yaw_rad = 0.0) {
+  control::PositionReference r;
+  r.p_world = p;
+  r.yaw_rad = yaw_rad;
+  return r;
+}
+
 struct LoopSample {
   double t_s = 0.0;
   Eigen::Vector3d p_true;

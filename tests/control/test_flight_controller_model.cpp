@@ -4,12 +4,11 @@
 #include <cmath>
 #include <numbers>
 
+#include "kestrel/core/units.hpp"
 #include "kestrel/sim/simulated_vehicle.hpp"
 
 namespace kestrel::sim {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 control::PwmChannels sticks(int roll, int pitch, int throttle, int yaw) {
   control::PwmChannels p;
@@ -50,9 +49,9 @@ TEST(FlightControllerModel, TracksARollStepWithinAFewTenthsOfASecond) {
     if (i == 299) at_03 = roll;
   }
   const Eigen::Vector3d z = v.state().R_world_body * Eigen::Vector3d::UnitZ();
-  EXPECT_NEAR(std::asin(-z.y()), 22.5 * kDeg, 0.5 * kDeg);
-  EXPECT_NEAR(at_03, 22.5 * kDeg, 2.0 * kDeg);
-  EXPECT_LT(peak, 22.5 * kDeg * 1.15) << "overshoot";
+  EXPECT_NEAR(std::asin(-z.y()), 22.5 * kDegToRad, 0.5 * kDegToRad);
+  EXPECT_NEAR(at_03, 22.5 * kDegToRad, 2.0 * kDegToRad);
+  EXPECT_LT(peak, 22.5 * kDegToRad * 1.15) << "overshoot";
   EXPECT_LT(v.state().v_world.y(), -1.0) << "rolling right accelerates towards -y";
 }
 
@@ -61,7 +60,7 @@ TEST(FlightControllerModel, YawStickGivesTheRatedRate) {
   SimulatedVehicle v(p, {}, Quadrotor::hover_state(p, {0, 0, 10}));
   // Full left rudder: counter-clockwise at 200 deg/s (table C.3).
   for (int i = 0; i < 1000; ++i) v.step(0.001, sticks(1500, 1500, hover_throttle_us(p), 1000));
-  EXPECT_NEAR(v.state().omega_body.z(), 200.0 * kDeg, 10.0 * kDeg);
+  EXPECT_NEAR(v.state().omega_body.z(), 200.0 * kDegToRad, 10.0 * kDegToRad);
   EXPECT_NEAR(v.state().p_world.z(), 10.0, 0.2);
 }
 

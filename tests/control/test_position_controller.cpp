@@ -1,3 +1,4 @@
+#include "kestrel/core/units.hpp"
 // The position controller in closed loop on perfect state (true state as the estimate):
 // hover, step responses (overshoot, settling), a 2 m square at 0.5 m/s, a disturbance, yaw,
 // and the limits on their own.
@@ -13,18 +14,8 @@ namespace kestrel::control {
 namespace {
 
 using test::ClosedLoop;
-constexpr double kDeg = std::numbers::pi / 180.0;
-
-sim::QuadrotorState hover_at(const Eigen::Vector3d& p) {
-  return sim::Quadrotor::hover_state(sim::QuadrotorParameters{}, p);
-}
-
-PositionReference point(const Eigen::Vector3d& p, double yaw = 0.0) {
-  PositionReference r;
-  r.p_world = p;
-  r.yaw_rad = yaw;
-  return r;
-}
+using test::hover_at;
+using test::point;
 
 TEST(PositionControllerClosedLoop, HoverHoldsWithinACentimetre) {
   ClosedLoop loop(hover_at({0, 0, 1.5}));
@@ -91,8 +82,9 @@ TEST(PositionControllerClosedLoop, LargeStepRespectsTheTiltAndSpeedLimits) {
     if (i > 0) max_speed = std::max(max_speed, (log[i].p_true - log[i - 1].p_true).head<2>().norm() * 200.0);
   }
   std::printf("[figure] 11 m step: max commanded tilt %.1f deg, max speed %.2f m/s, final %.3f m\n",
-              max_tilt / kDeg, max_speed, (log.back().p_true - Eigen::Vector3d(10, -5, 1.5)).norm());
-  EXPECT_LT(max_tilt, (30.0 + 0.5) * kDeg * std::sqrt(2.0));
+              max_tilt / kDegToRad, max_speed,
+              (log.back().p_true - Eigen::Vector3d(10, -5, 1.5)).norm());
+  EXPECT_LT(max_tilt, (30.0 + 0.5) * kDegToRad * std::sqrt(2.0));
   EXPECT_LT(max_speed, 2.0 * 1.15);
   EXPECT_LT((log.back().p_true - Eigen::Vector3d(10, -5, 1.5)).norm(), 0.05);
 }
@@ -142,7 +134,7 @@ TEST(PositionControllerClosedLoop, TurnsToTheReferenceHeading) {
   ClosedLoop loop(hover_at({0, 0, 1.5}));
   loop.reference = [](double) { return point({0, 0, 1.5}, 2.5); };
   const auto log = loop.run(6.0);
-  EXPECT_NEAR(wrap_angle(yaw_of(loop.vehicle.state().R_world_body) - 2.5), 0.0, 1.0 * kDeg);
+  EXPECT_NEAR(wrap_angle(yaw_of(loop.vehicle.state().R_world_body) - 2.5), 0.0, 1.0 * kDegToRad);
   EXPECT_LT((log.back().p_true - Eigen::Vector3d(0, 0, 1.5)).norm(), 0.02);
 }
 
@@ -173,7 +165,7 @@ TEST(PositionController, AntiWindupStopsIntegratingIntoTheTiltLimit) {
   // limit is at or beyond the 5 m/s^2 acceleration limit), far below the 2 m/s^2 clamp.
 
   EXPECT_LT(out.integral_m_s2.head<2>().norm(), 0.65);
-  EXPECT_LE(std::hypot(out.command.roll_rad, out.command.pitch_rad), 30.0 * kDeg * 1.001);
+  EXPECT_LE(std::hypot(out.command.roll_rad, out.command.pitch_rad), 30.0 * kDegToRad * 1.001);
 }
 
 TEST(PositionController, FirstStepHoldsTheWeightAndTiltRateIsLimited) {
@@ -185,7 +177,7 @@ TEST(PositionController, FirstStepHoldsTheWeightAndTiltRateIsLimited) {
   EXPECT_NEAR(out.command.roll_rad, 0.0, 1e-12);
   e.t_ns = 5'000'000;
   out = c.update(e, point({0, 5.0, 1.5}));  // a sudden far reference
-  EXPECT_LE(std::abs(out.command.roll_rad), 180.0 * kDeg * 0.005 + 1e-12);
+  EXPECT_LE(std::abs(out.command.roll_rad), 180.0 * kDegToRad * 0.005 + 1e-12);
 }
 
 }  // namespace

@@ -1,9 +1,8 @@
 // PWM mapping (scaling, deadband, direction, hard limits, inverse) and the output backends:
 // simulated, sysfs (on a temporary directory laid out like a pwmchip), serial MSP (on a
 // pseudo-terminal).
-#include <gtest/gtest.h>
-
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <pty.h>
 #include <unistd.h>
 
@@ -13,15 +12,14 @@
 #include <numbers>
 
 #include "kestrel/control/pwm_mapper.hpp"
-#include "kestrel/core/error.hpp"
 #include "kestrel/control/pwm_output.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/sim/flight_controller_model.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::control {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 TEST(PwmMapper, NeutralHoverAndFullScale) {
   const PwmMapper m;
@@ -32,9 +30,9 @@ TEST(PwmMapper, NeutralHoverAndFullScale) {
   EXPECT_EQ(p.us[PwmChannels::kPitch], 1500);
   EXPECT_EQ(p.us[PwmChannels::kYaw], 1500);
   EXPECT_EQ(p.us[PwmChannels::kThrottle], 1500);
-  c.roll_rad = 45 * kDeg;
-  c.pitch_rad = -45 * kDeg;
-  c.yaw_rate_rad_s = 200 * kDeg;  // counter-clockwise: rudder left
+  c.roll_rad = 45 * kDegToRad;
+  c.pitch_rad = -45 * kDegToRad;
+  c.yaw_rate_rad_s = 200 * kDegToRad;  // counter-clockwise: rudder left
   p = m.map(c);
   EXPECT_EQ(p.us[PwmChannels::kRoll], 2000);
   EXPECT_EQ(p.us[PwmChannels::kPitch], 1000);
@@ -45,7 +43,7 @@ TEST(PwmMapper, SmallCommandsJumpTheDeadband) {
   const PwmMapper m;
   AttitudeThrustCommand c;
   c.thrust_N = 12.0;
-  c.roll_rad = 0.1 * kDeg;
+  c.roll_rad = 0.1 * kDegToRad;
   const auto p = m.map(c);
   EXPECT_GT(p.us[PwmChannels::kRoll], 1500 + 8);
   // And the flight controller reads back what was meant.
@@ -77,15 +75,15 @@ TEST(PwmMapper, ReversedChannelsAndInverse) {
   PwmMapperOptions o;
   o.channels[PwmChannels::kPitch].reversed = true;
   const PwmMapper m(o);
-  AttitudeThrustCommand c{10 * kDeg, 10 * kDeg, -30 * kDeg, 15.0};
+  AttitudeThrustCommand c{10 * kDegToRad, 10 * kDegToRad, -30 * kDegToRad, 15.0};
   const auto p = m.map(c);
   EXPECT_GT(p.us[PwmChannels::kRoll], 1500);
   EXPECT_LT(p.us[PwmChannels::kPitch], 1500);
   const auto back = m.unmap(p);
-  const double lsb = 45 * kDeg / 492;  // one microsecond of stick
+  const double lsb = 45 * kDegToRad / 492;  // one microsecond of stick
   EXPECT_NEAR(back.roll_rad, c.roll_rad, lsb);
   EXPECT_NEAR(back.pitch_rad, c.pitch_rad, lsb);
-  EXPECT_NEAR(back.yaw_rate_rad_s, c.yaw_rate_rad_s, 200 * kDeg / 492);
+  EXPECT_NEAR(back.yaw_rate_rad_s, c.yaw_rate_rad_s, 200 * kDegToRad / 492);
   EXPECT_NEAR(back.thrust_N, c.thrust_N, 28.0 / 1000);
 }
 

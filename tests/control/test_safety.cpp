@@ -1,3 +1,4 @@
+#include "kestrel/core/units.hpp"
 // Safety behaviours, each in closed loop on the simulated vehicle: odometry loss (hold on the
 // IMU, recover; or land after the timeout), estimator failure (level open-loop descent),
 // the command watchdog (controller hangs: level, descend, cut off), command bounds.
@@ -14,17 +15,8 @@ namespace kestrel::control {
 namespace {
 
 using test::ClosedLoop;
-constexpr double kDeg = std::numbers::pi / 180.0;
-
-sim::QuadrotorState hover_at(const Eigen::Vector3d& p) {
-  return sim::Quadrotor::hover_state(sim::QuadrotorParameters{}, p);
-}
-
-PositionReference point(const Eigen::Vector3d& p) {
-  PositionReference r;
-  r.p_world = p;
-  return r;
-}
+using test::hover_at;
+using test::point;
 
 // Odometry silent in [from, to) seconds.
 std::function<EstimatorHealth(TimeNs)> vision_gap(double from_s, double to_s) {
@@ -169,8 +161,8 @@ TEST(BoundCommand, ClipsAndReplacesNonFiniteValues) {
   EXPECT_TRUE(b.non_finite);
   EXPECT_TRUE(b.clipped);
   EXPECT_EQ(b.command.roll_rad, 0.0);
-  EXPECT_NEAR(b.command.pitch_rad, 35 * kDeg, 1e-12);
-  EXPECT_NEAR(b.command.yaw_rate_rad_s, -120 * kDeg, 1e-12);
+  EXPECT_NEAR(b.command.pitch_rad, 35 * kDegToRad, 1e-12);
+  EXPECT_NEAR(b.command.yaw_rate_rad_s, -120 * kDegToRad, 1e-12);
   EXPECT_EQ(b.command.thrust_N, 11.0);
   b = bound_command({0.1, 0.1, 0.1, 12.0}, l, 11.0);
   EXPECT_FALSE(b.clipped || b.non_finite);

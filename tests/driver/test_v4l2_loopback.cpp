@@ -33,8 +33,8 @@ using kestrel::test::find_loopback;
 using kestrel::test::LoopbackSearch;
 using kestrel::test::LoopbackWriter;
 
-constexpr int kWidth = 752;
-constexpr int kHeight = 480;
+constexpr int kLoopbackWidth = 752;
+constexpr int kLoopbackHeight = 480;
 
 TEST(V4l2Loopback, CapturesAndDecodesFramesWrittenToALoopbackDevice) {
   const LoopbackSearch search = find_loopback();
@@ -44,8 +44,8 @@ TEST(V4l2Loopback, CapturesAndDecodesFramesWrittenToALoopbackDevice) {
   std::vector<StereoMosaic> sent;
   std::vector<std::vector<std::uint8_t>> frames;
   for (std::uint64_t k = 0; k < 4; ++k) {
-    StereoMosaic m{kestrel::test::random_mosaic(kWidth, kHeight, 10 + 2 * k),
-                   kestrel::test::random_mosaic(kWidth, kHeight, 11 + 2 * k)};
+    StereoMosaic m{kestrel::test::random_mosaic(kLoopbackWidth, kLoopbackHeight, 10 + 2 * k),
+                   kestrel::test::random_mosaic(kLoopbackWidth, kLoopbackHeight, 11 + 2 * k)};
     frames.push_back(kestrel::test::pack_by_hand(m.left, m.right, 0));
     sent.push_back(m);
   }

@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "kestrel/core/units.hpp"
 #include "kestrel/eval/axis_errors.hpp"
 #include "synthetic_trajectory.hpp"
 #include "test_data.hpp"
@@ -13,19 +14,21 @@
 namespace kestrel::eval {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
-
 TEST(EulerZyx, SingleAxisRotations) {
   const auto rpy = [](const Eigen::Vector3d& axis, double angle) {
     return roll_pitch_yaw_zyx(Eigen::AngleAxisd(angle, axis).toRotationMatrix());
   };
-  EXPECT_LT((rpy(Eigen::Vector3d::UnitX(), 30 * kDeg) - Eigen::Vector3d(30 * kDeg, 0, 0)).norm(),
+  EXPECT_LT((rpy(Eigen::Vector3d::UnitX(), 30 * kDegToRad) - Eigen::Vector3d(30 * kDegToRad, 0, 0))
+                .norm(),
             1e-12);
-  EXPECT_LT((rpy(Eigen::Vector3d::UnitY(), -40 * kDeg) - Eigen::Vector3d(0, -40 * kDeg, 0)).norm(),
-            1e-12);
-  EXPECT_LT((rpy(Eigen::Vector3d::UnitZ(), 170 * kDeg) - Eigen::Vector3d(0, 0, 170 * kDeg)).norm(),
-            1e-12);
+  EXPECT_LT(
+      (rpy(Eigen::Vector3d::UnitY(), -40 * kDegToRad) - Eigen::Vector3d(0, -40 * kDegToRad, 0))
+          .norm(),
+      1e-12);
+  EXPECT_LT(
+      (rpy(Eigen::Vector3d::UnitZ(), 170 * kDegToRad) - Eigen::Vector3d(0, 0, 170 * kDegToRad))
+          .norm(),
+      1e-12);
 }
 
 TEST(EulerZyx, RoundTripsOverRandomAngles) {
@@ -55,9 +58,9 @@ TEST(WrapAngle, MapsIntoHalfOpenInterval) {
   EXPECT_NEAR(wrap_angle(3 * kPi / 2), -kPi / 2, 1e-15);
   EXPECT_NEAR(wrap_angle(-7 * kPi / 2), kPi / 2, 1e-14);
   AxisErrorSample s;
-  s.rpy_gt_rad = {0, 0, 179 * kDeg};
-  s.rpy_est_rad = {0, 0, -179 * kDeg};
-  EXPECT_NEAR(s.rpy_error_rad().z(), 2 * kDeg, 1e-12);
+  s.rpy_gt_rad = {0, 0, 179 * kDegToRad};
+  s.rpy_est_rad = {0, 0, -179 * kDegToRad};
+  EXPECT_NEAR(s.rpy_error_rad().z(), 2 * kDegToRad, 1e-12);
 }
 
 TEST(AxisErrors, AlignedCopyHasZeroErrorOnEveryAxis) {
@@ -82,8 +85,8 @@ TEST(AxisErrors, CsvHasProvenanceHeaderAndOneRowPerSample) {
   s.t_ns = 2'500'000'000;
   s.p_gt_m = {1, 2, 3};
   s.p_est_m = {1.5, 2, 3};
-  s.rpy_gt_rad = {0, 0, 90 * kDeg};
-  s.rpy_est_rad = {0, 0, 80 * kDeg};
+  s.rpy_gt_rad = {0, 0, 90 * kDegToRad};
+  s.rpy_est_rad = {0, 0, 80 * kDegToRad};
   write_axis_errors_csv(dir / "a.csv", {s, s}, 2'000'000'000, "evaluate");
   std::ifstream in(dir / "a.csv");
   std::string provenance, header, row;

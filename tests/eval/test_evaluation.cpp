@@ -15,7 +15,8 @@ namespace kestrel::eval {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr TimeNs kT0Ns = 1'000'000'000'000'000'000;
+// The synthetic trajectories start at t = 1e9 s (stamps of TUM magnitude).
+constexpr TimeNs kStartNs = 1'000'000'000'000'000'000;
 
 struct Pair {
   Trajectory gt, est;
@@ -24,11 +25,11 @@ struct Pair {
 /// Ground truth at 100 Hz; an estimate at 30 Hz, moved rigidly and drifting 5 cm/s in x.
 Pair synthetic_pair() {
   Pair p;
-  p.gt = test::sample_trajectory(1000, kT0Ns, 10'000'000);
-  p.est = test::sample_trajectory(300, kT0Ns + 3'000'000, 33'333'333);
+  p.gt = test::sample_trajectory(1000, kStartNs, 10'000'000);
+  p.est = test::sample_trajectory(300, kStartNs + 3'000'000, 33'333'333);
   const SE3 T_est_gt = SE3::exp((Vector6d() << 0.2, 0.1, -0.3, 0.1, 0.2, -0.5).finished());
   for (StampedPose& pose : p.est) {
-    const double t = ns_to_s(pose.t_ns - kT0Ns);
+    const double t = ns_to_s(pose.t_ns - kStartNs);
     pose.T_world_body = T_est_gt * SE3(SO3(), {0.05 * t, 0, 0}) * pose.T_world_body;
   }
   return p;
@@ -41,7 +42,7 @@ TEST(Evaluation, CombinesAteRpeAndAxes) {
   EXPECT_EQ(e.est_poses, 300u);
   EXPECT_EQ(e.ate.pairs.size(), 300u);
   EXPECT_EQ(e.axes.size(), e.ate.pairs.size());
-  EXPECT_EQ(e.t0_ns, kT0Ns);
+  EXPECT_EQ(e.t0_ns, kStartNs);
   EXPECT_GT(e.ate.stats_m.rmse, 0.01);  // drift that alignment cannot remove
   // The est stamps are 3 ms off the gt ones, so each window's gt motion is off by up to
   // 3 ms of motion: near, not exactly, 5 cm/s.

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/eval/trajectory_metrics.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "synthetic_trajectory.hpp"
@@ -18,7 +19,6 @@ namespace {
 
 constexpr TimeNs kT0Ns = 1'305'031'098'665'900'000;
 constexpr TimeNs kMs = 1'000'000;
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 Trajectory transformed(const SE3& T_new_old, Trajectory trajectory) {
   for (StampedPose& pose : trajectory) pose.T_world_body = T_new_old * pose.T_world_body;

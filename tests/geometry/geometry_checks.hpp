@@ -58,6 +58,14 @@ Eigen::Matrix<double, M, N> central_difference(F&& f, double h = 1e-6) {
 inline constexpr double kFdStep = 1e-6;
 inline constexpr double kFdTol = 1e-7;
 
+/// A round trip is a handful of operations on numbers up to ~10 (SE3 translations), each off
+/// by an ulp or two; 1e-12 (~5000 eps) is tight enough to catch a lost digit and loose enough
+/// to be stable.
+inline constexpr double kRoundTrip = 1e-12;
+/// The closed forms against long-double series: they must hold to a few ulps at every angle,
+/// including just either side of the series/closed-form switches.
+inline constexpr double kVsSeries = 1e-13;
+
 using Matrix3ld = Eigen::Matrix<long double, 3, 3>;
 using Matrix4ld = Eigen::Matrix<long double, 4, 4>;
 using Matrix6ld = Eigen::Matrix<long double, 6, 6>;

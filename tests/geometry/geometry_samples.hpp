@@ -15,12 +15,12 @@
 #include <random>
 #include <string>
 
+#include "kestrel/core/units.hpp"
 #include "kestrel/geometry/se3.hpp"
 #include "kestrel/geometry/so3.hpp"
 
 namespace kestrel::test {
 
-inline constexpr double kPi = std::numbers::pi;
 /// Random samples of a property test that is not split by angle, and of the generic angle
 /// range of one that is (the issue asks for >= 1000 per property).
 inline constexpr int kSamples = 1000;

@@ -19,7 +19,6 @@ namespace {
 
 using quat::Quat;
 using test::GeometrySampler;
-using test::kPi;
 using test::kSamples;
 using test::near;
 

@@ -16,14 +16,12 @@ using test::central_difference;
 using test::GeometrySampler;
 using test::kFdStep;
 using test::kFdTol;
-using test::kPi;
+using test::kRoundTrip;
 using test::kSamples;
+using test::kVsSeries;
 using test::near;
 using test::near_rel;
 
-// Round trips: a handful of operations on numbers up to |t| ~ 10, each off by an ulp or two.
-constexpr double kRoundTrip = 1e-12;
-constexpr double kVsSeries = 1e-13;
 // Translations up to 5 m per axis: a few metres is a frame-to-frame motion at most, but the
 // coupling terms of the Jacobian scale with |v| and this exercises them.
 constexpr double kMaxV = 5.0;

@@ -16,17 +16,11 @@ using test::central_difference;
 using test::GeometrySampler;
 using test::kFdStep;
 using test::kFdTol;
-using test::kPi;
+using test::kRoundTrip;
 using test::kSamples;
+using test::kVsSeries;
 using test::near;
 using test::near_rel;
-
-// A round trip is a handful of operations on O(1) numbers, each off by an ulp or two;
-// 1e-12 (~5000 eps) is tight enough to catch a lost digit and loose enough to be stable.
-constexpr double kRoundTrip = 1e-12;
-// The closed forms against long-double series: they must hold to a few ulps at every angle,
-// including just either side of the series/closed-form switches.
-constexpr double kVsSeries = 1e-13;
 
 Eigen::Matrix3d series_exp(const Eigen::Vector3d& w) {
   return test::series_exp<3>(test::hat_ld(w)).cast<double>();

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <opencv2/imgproc.hpp>
 
+#include "bitwise_checks.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/gpu/image_kernels.hpp"
 #include "kestrel/gpu/photometric_step.hpp"
@@ -28,31 +29,13 @@
 namespace kestrel::gpu {
 namespace {
 
-int differing_bits(const cv::Mat& a, const cv::Mat& b) {
-  EXPECT_EQ(a.size(), b.size());
-  int n = 0;
-  for (int y = 0; y < a.rows; ++y) {
-    for (int x = 0; x < a.cols; ++x) {
-      n += std::memcmp(&a.at<float>(y, x), &b.at<float>(y, x), sizeof(float)) != 0 ? 1 : 0;
-    }
-  }
-  return n;
-}
+using kestrel::test::differing_bits;
+using kestrel::test::expect_same_stats;
 
 double max_abs_diff(const cv::Mat& a, const cv::Mat& b) {
   double m = 0.0;
   cv::minMaxLoc(cv::abs(a - b), nullptr, &m);
   return m;
-}
-
-void expect_same_stats(const sensor::MatchStats& a, const sensor::MatchStats& b,
-                       const std::string& what) {
-  EXPECT_EQ(a.valid, b.valid) << what;
-  EXPECT_EQ(a.unreachable, b.unreachable) << what;
-  EXPECT_EQ(a.rejected_texture, b.rejected_texture) << what;
-  EXPECT_EQ(a.rejected_uniqueness, b.rejected_uniqueness) << what;
-  EXPECT_EQ(a.rejected_lr, b.rejected_lr) << what;
-  EXPECT_EQ(a.rejected_depth, b.rejected_depth) << what;
 }
 
 // Block matching: integer costs and the same IEEE division: bit for bit.

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "bitwise_checks.hpp"
 #include "emulation.hpp"
 #include "kestrel/gpu/image_kernels.hpp"
 #include "kestrel/gpu/photometric_step.hpp"
@@ -27,29 +28,8 @@
 namespace kestrel::gpu {
 namespace {
 
-/// Pixels whose float bits differ (inf == inf, NaN patterns compared as bits).
-int differing_bits(const cv::Mat& a, const cv::Mat& b) {
-  EXPECT_EQ(a.size(), b.size());
-  EXPECT_EQ(a.type(), b.type());
-  int n = 0;
-  for (int y = 0; y < a.rows; ++y) {
-    for (int x = 0; x < a.cols; ++x) {
-      n += std::memcmp(&a.at<float>(y, x), &b.at<float>(y, x), sizeof(float)) != 0 ? 1 : 0;
-    }
-  }
-  return n;
-}
-
-void expect_same_stats(const sensor::MatchStats& a, const sensor::MatchStats& b,
-                       const std::string& what) {
-  EXPECT_EQ(a.pixels, b.pixels) << what;
-  EXPECT_EQ(a.valid, b.valid) << what;
-  EXPECT_EQ(a.unreachable, b.unreachable) << what;
-  EXPECT_EQ(a.rejected_texture, b.rejected_texture) << what;
-  EXPECT_EQ(a.rejected_uniqueness, b.rejected_uniqueness) << what;
-  EXPECT_EQ(a.rejected_lr, b.rejected_lr) << what;
-  EXPECT_EQ(a.rejected_depth, b.rejected_depth) << what;
-}
+using kestrel::test::differing_bits;
+using kestrel::test::expect_same_stats;
 
 cv::Mat random_image(int w, int h, std::uint64_t seed, float lo = 0.0F, float hi = 1.0F) {
   cv::Mat m(h, w, CV_32FC1);

@@ -15,6 +15,13 @@
 
 namespace kestrel::test {
 
+/// SE3::exp of the twist [tx, ty, tz, rx, ry, rz], the rotation part given in degrees.
+inline SE3 motion(double tx, double ty, double tz, double rx_deg, double ry_deg, double rz_deg) {
+  Vector6d xi;
+  xi << tx, ty, tz, rx_deg * M_PI / 180.0, ry_deg * M_PI / 180.0, rz_deg * M_PI / 180.0;
+  return SE3::exp(xi);
+}
+
 struct TexturedRect {
   Eigen::Vector3d origin;            // centre, world frame
   Eigen::Vector3d e1, e2;            // orthonormal in-plane axes

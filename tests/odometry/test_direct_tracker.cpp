@@ -20,16 +20,11 @@
 namespace kestrel::odometry {
 namespace {
 
+using test::motion;
 using test::render;
 using test::rotation_error_deg;
 using test::test_camera;
 using test::translation_error_m;
-
-SE3 motion(double tx, double ty, double tz, double rx_deg, double ry_deg, double rz_deg) {
-  Vector6d xi;
-  xi << tx, ty, tz, rx_deg * M_PI / 180.0, ry_deg * M_PI / 180.0, rz_deg * M_PI / 180.0;
-  return SE3::exp(xi);
-}
 
 // --- Jacobians -----------------------------------------------------------------------------
 

@@ -17,6 +17,8 @@
 namespace kestrel::odometry {
 namespace {
 
+using test::motion;
+
 RectifiedStereo random_rig(std::mt19937& rng) {
   std::uniform_real_distribution<double> f(300.0, 600.0), b(0.05, 0.3);
   RectifiedStereo rig;
@@ -55,12 +57,6 @@ DisparityFrame to_disparity_frame(const RgbdFrame& f, const RectifiedStereo& rig
     }
   }
   return out;
-}
-
-SE3 motion(double tx, double ty, double tz, double rx_deg, double ry_deg, double rz_deg) {
-  Vector6d xi;
-  xi << tx, ty, tz, rx_deg * M_PI / 180.0, ry_deg * M_PI / 180.0, rz_deg * M_PI / 180.0;
-  return SE3::exp(xi);
 }
 
 // --- warp and Jacobian -------------------------------------------------------------------

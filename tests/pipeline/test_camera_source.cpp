@@ -18,6 +18,7 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/driver/bayer.hpp"
 #include "kestrel/pipeline/pipeline.hpp"
+#include "pipeline_report.hpp"
 #include "run_cli.hpp"
 #include "stereo_test_frames.hpp"
 #include "test_data.hpp"
@@ -30,17 +31,11 @@ namespace fs = std::filesystem;
 using test::fake_event;
 using test::fake_frame;
 using test::FakeEvent;
+using test::stage;
 
 constexpr int kWidth = 320;
 constexpr int kHeight = 240;
 constexpr int kDisparity = 8;  // px: a fronto-parallel wall at f * B / d = 300 * 0.1 / 8 m
-
-const StageStats& stage(const PipelineReport& r, const std::string& name) {
-  for (const auto& s : r.stages) {
-    if (s.name == name) return s;
-  }
-  throw std::runtime_error("no stage " + name);
-}
 
 /// A textured wall seen by both cameras: smoothed noise for the left view, the right view the
 /// same shifted by kDisparity (a point at left x is at right x - d).

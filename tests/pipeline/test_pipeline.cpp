@@ -7,17 +7,20 @@
 #include <fstream>
 #include <sstream>
 
-#include "kestrel/core/error.hpp"
-#include "kestrel/pipeline/pipeline.hpp"
 #include "config_files.hpp"
+#include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
+#include "kestrel/pipeline/pipeline.hpp"
+#include "pipeline_report.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::pipeline {
 namespace {
 
+using test::stage;
+
 namespace fs = std::filesystem;
 constexpr const char* kV101 = "euroc/V1_01_easy_part1";
-constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
 // 25 pairs at 20 Hz; the static IMU initialisation shortened to 0.3 s so that most pairs
 // reach the filter after it has started.
@@ -28,13 +31,6 @@ PipelineOptions short_run(const fs::path& dir, Pace pace) {
                                        "\npace: " + (pace == Pace::kFast ? "fast" : "recorded") +
                                        "\nmax_frames: 25\nfusion_options: fusion.yaml\n");
   return PipelineOptions::load_yaml(config);
-}
-
-const StageStats& stage(const PipelineReport& r, const std::string& name) {
-  for (const auto& s : r.stages) {
-    if (s.name == name) return s;
-  }
-  throw std::runtime_error("no stage " + name);
 }
 
 TEST(PipelineOptions, UnknownKeyNamesFileAndField) {

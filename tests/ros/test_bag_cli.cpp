@@ -15,7 +15,6 @@ namespace kestrel::test {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr const char* kTum = "tum/rgbd_dataset_freiburg1_rpy_part1";
 constexpr std::size_t kFrames = 30;
 
 /// One bag of the first kFrames frames, made once per test program run (named so that the
@@ -36,7 +35,7 @@ fs::path shared_bag() {
   fs::create_directories(dir);
   const fs::path out = dir / "rgbd_dataset_freiburg1_rpy_first30.bag";
   const RunResult r = run_kestrel_ros(
-      dir, "make-bag --tum " + quoted((shared_data_dir() / kTum).string()) + " --out " +
+      dir, "make-bag --tum " + quoted((shared_data_dir() / kTumRpyPart1).string()) + " --out " +
                quoted(out.string()) + " --max-frames " + std::to_string(kFrames));
   EXPECT_EQ(r.exit_code, 0) << r.err;
   if (r.exit_code == 0) bag = out;
@@ -46,7 +45,7 @@ fs::path shared_bag() {
 void expect_library_trajectory(const fs::path& trajectory_file, const std::string& what) {
   const Trajectory trajectory = io::read_tum_trajectory(trajectory_file);
   const auto reference =
-      library_rgbd_trajectory((shared_data_dir() / kTum).string(), "fr1", kFrames);
+      library_rgbd_trajectory((shared_data_dir() / kTumRpyPart1).string(), "fr1", kFrames);
   ASSERT_EQ(trajectory.size(), reference.size()) << what;
   double max_dp = 0.0, max_dq = 0.0;
   for (std::size_t i = 0; i < reference.size(); ++i) {
@@ -66,7 +65,7 @@ void expect_library_trajectory(const fs::path& trajectory_file, const std::strin
 }
 
 TEST(RosBagCli, BagModeGivesTheLibraryTrajectoryOfTheFolder) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   const fs::path bag = shared_bag();
   ASSERT_FALSE(bag.empty());
   const fs::path scratch = fresh_temp_dir("ros_bag");
@@ -81,7 +80,7 @@ TEST(RosBagCli, BagModeGivesTheLibraryTrajectoryOfTheFolder) {
 }
 
 TEST(RosBagCli, CameraInfoOfTheBagIsUsedWhenNothingElseSaysTheCamera) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   const fs::path bag = shared_bag();
   ASSERT_FALSE(bag.empty());
   const fs::path scratch = fresh_temp_dir("ros_bag");
@@ -97,11 +96,11 @@ TEST(RosBagCli, CameraInfoOfTheBagIsUsedWhenNothingElseSaysTheCamera) {
 }
 
 TEST(RosBagCli, MakeBagRefusesToOverwriteWithoutForce) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   const fs::path scratch = fresh_temp_dir("ros_bag");
   const fs::path out = scratch / "mine.bag";
   { std::ofstream(out) << "something the user keeps\n"; }
-  const std::string args = "make-bag --tum " + quoted((shared_data_dir() / kTum).string()) +
+  const std::string args = "make-bag --tum " + quoted((shared_data_dir() / kTumRpyPart1).string()) +
                            " --out " + quoted(out.string()) + " --max-frames 2";
   const RunResult refused = run_kestrel_ros(scratch, args);
   EXPECT_EQ(refused.exit_code, 1);
@@ -116,7 +115,7 @@ TEST(RosBagCli, MakeBagRefusesToOverwriteWithoutForce) {
 }
 
 TEST(RosBagCli, BagModeRefusesToOverwriteAUsersFile) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   const fs::path bag = shared_bag();
   ASSERT_FALSE(bag.empty());
   const fs::path scratch = fresh_temp_dir("ros_bag");
@@ -154,7 +153,7 @@ TEST(RosBagCli, MissingOrUnreadableBagsAreNamed) {
 }
 
 TEST(RosBagCli, AMissingTopicIsNamedWithWhatTheBagHas) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   const fs::path bag = shared_bag();
   ASSERT_FALSE(bag.empty());
   const fs::path scratch = fresh_temp_dir("ros_bag");

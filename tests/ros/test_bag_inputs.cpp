@@ -20,7 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace enc = sensor_msgs::image_encodings;
-constexpr const char* kTum = "tum/rgbd_dataset_freiburg1_rpy_part1";
 
 sensor_msgs::Image image_message(const cv::Mat& m, const std::string& encoding, std::int64_t t_ns) {
   sensor_msgs::Image msg;
@@ -80,10 +79,10 @@ TEST(RosBagInputs, StreamsThatNeverPairAreAnError) {
 }
 
 TEST(RosBagInputs, UnexpectedEncodingsAreDroppedAndTheRestIsTracked) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   const fs::path scratch = fresh_temp_dir("ros_bag_inputs");
   const fs::path path = scratch / "mixed.bag";
-  const ros::TumFolder tum((shared_data_dir() / kTum).string());
+  const ros::TumFolder tum((shared_data_dir() / kTumRpyPart1).string());
   constexpr std::size_t kFrames = 8;
   {
     rosbag::Bag bag(path.string(), rosbag::bagmode::Write);

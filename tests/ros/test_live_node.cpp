@@ -25,7 +25,6 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace enc = sensor_msgs::image_encodings;
-constexpr const char* kTum = "tum/rgbd_dataset_freiburg1_rpy_part1";
 constexpr const char* kEuroc = "euroc/V1_01_easy_part1";
 
 const ::testing::Environment* const kRosTeardown =
@@ -173,9 +172,9 @@ void expect_stops_cleanly(LiveNode& node, const std::string& statistics) {
 // (b) The node on the first frames of fr1/rpy: one Odometry and one TF per frame, at the
 // library's poses (same frames, same code: equal to rounding), with ROS covariances.
 TEST(RosLiveNode, RgbdOdometryAndTfMatchTheLibrary) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   KESTREL_REQUIRE_ROS_MASTER();
-  const std::string folder = (shared_data_dir() / kTum).string();
+  const std::string folder = (shared_data_dir() / kTumRpyPart1).string();
   constexpr std::size_t kFrames = 15;
   const auto reference = library_rgbd_trajectory(folder, "fr1", kFrames);
   ::ros::NodeHandle nh;
@@ -241,9 +240,9 @@ TEST(RosLiveNode, RgbdOdometryAndTfMatchTheLibrary) {
 // (c) Frames with unexpected encodings, a truncated image and a wrong size between good
 // frames: each is dropped with a warning naming topic and problem; later frames are tracked.
 TEST(RosLiveNode, BadFramesAreDroppedWithWarningsAndTheNodeGoesOn) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   KESTREL_REQUIRE_ROS_MASTER();
-  const std::string folder = (shared_data_dir() / kTum).string();
+  const std::string folder = (shared_data_dir() / kTumRpyPart1).string();
   ::ros::NodeHandle nh;
   LiveNode node("bad", {"_camera:=fr1", "_warn_period:=0.001"});
   Collector collector(nh, node.node(), "openni_rgb_optical_frame");
@@ -305,7 +304,7 @@ TEST(RosLiveNode, BadFramesAreDroppedWithWarningsAndTheNodeGoesOn) {
 
 // Without ~camera the node waits for camera_info (saying so) and starts on the first one.
 TEST(RosLiveNode, WaitsForCameraInfoWhenNoCameraIsGiven) {
-  KESTREL_REQUIRE_DATA(kTum);
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
   KESTREL_REQUIRE_ROS_MASTER();
   ::ros::NodeHandle nh;
   LiveNode node("info", {"_warn_period:=0.001", "_odom_frame:=/my_odom", "_camera_frame:=kinect"});
@@ -317,7 +316,7 @@ TEST(RosLiveNode, WaitsForCameraInfoWhenNoCameraIsGiven) {
               wait_for_subscribers(pub_info))
       << node.log();
   ASSERT_TRUE(wait_until([&] { return collector.connected(); }, 30.0)) << node.log();
-  const ros::TumFolder tum((shared_data_dir() / kTum).string());
+  const ros::TumFolder tum((shared_data_dir() / kTumRpyPart1).string());
   ros::TumFrame f = tum.load(0);
   pub_depth.publish(depth32(f.depth_m, f.depth_t_ns));
   pub_rgb.publish(rgb8(f.bgr, f.t_ns));

@@ -18,7 +18,7 @@
 namespace kestrel::ros {
 namespace {
 
-constexpr const char* kTum = "tum/rgbd_dataset_freiburg1_rpy_part1";
+using test::kTumRpyPart1;
 constexpr const char* kEuroc = "euroc/V1_01_easy_part1";
 using Matrix6 = Eigen::Matrix<double, 6, 6>;
 
@@ -37,8 +37,8 @@ void expect_symmetric_psd(const Matrix6& c, const std::string& what) {
 }
 
 TEST(OdometryCore, RgbdMatchesTheLibraryWithRosCovariances) {
-  KESTREL_REQUIRE_DATA(kTum);
-  const std::string folder = (test::shared_data_dir() / kTum).string();
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
+  const std::string folder = (test::shared_data_dir() / kTumRpyPart1).string();
   constexpr std::size_t kFrames = 20;
   const auto reference = test::library_rgbd_trajectory(folder, "fr1", kFrames);
   OdometryCore core(OdometryCoreOptions{}, load_camera_model("fr1"));
@@ -87,8 +87,8 @@ TEST(OdometryCore, RgbdMatchesTheLibraryWithRosCovariances) {
 // A child frame rotated about the camera centre (a base_link whose axes differ from the
 // optical frame): poses are conjugated, covariances and twists rotate with it.
 TEST(OdometryCore, ChildFrameRotatesPosesCovariancesAndTwists) {
-  KESTREL_REQUIRE_DATA(kTum);
-  const std::string folder = (test::shared_data_dir() / kTum).string();
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
+  const std::string folder = (test::shared_data_dir() / kTumRpyPart1).string();
   // Optical (x right, y down, z forward) -> body (x forward, y left, z up).
   Eigen::Matrix3d R_base_cam;
   R_base_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
@@ -119,8 +119,8 @@ TEST(OdometryCore, ChildFrameRotatesPosesCovariancesAndTwists) {
 }
 
 TEST(OdometryCore, BadFramesAreReportedAndTrackingGoesOn) {
-  KESTREL_REQUIRE_DATA(kTum);
-  const std::string folder = (test::shared_data_dir() / kTum).string();
+  KESTREL_REQUIRE_DATA(kTumRpyPart1);
+  const std::string folder = (test::shared_data_dir() / kTumRpyPart1).string();
   const auto reference = test::library_rgbd_trajectory(folder, "fr1", 4);
   OdometryCore core(OdometryCoreOptions{}, load_camera_model("fr1"));
   const TumFolder tum(folder);

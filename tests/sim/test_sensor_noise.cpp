@@ -6,13 +6,12 @@
 #include <fstream>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/sim/renderer.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::sim {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// An exact depth map and incidence map: a plane at depth z seen head-on.
 struct Buffers {

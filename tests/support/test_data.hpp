@@ -11,6 +11,9 @@
 
 namespace kestrel::test {
 
+/// The real sequence most tests run on (250 frames of fr1/rpy), relative to shared_data_dir().
+inline constexpr const char* kTumRpyPart1 = "tum/rgbd_dataset_freiburg1_rpy_part1";
+
 /// KESTREL_DATA_DIR if set, else the configure-time default (../shared/data).
 inline std::filesystem::path shared_data_dir() {
   if (const char* env = std::getenv("KESTREL_DATA_DIR"); env != nullptr && *env != '\0') {
