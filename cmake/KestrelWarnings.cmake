@@ -21,8 +21,9 @@ if(KESTREL_SANITIZE)
   # UBSan without its `alignment` and `null` checks: they instrument every reference binding and
   # member access, which in Eigen's expression templates costs as much compile time as all the
   # rest (tests/geometry/test_se3.cpp at -O1: 61.5 s with them, 29.9 s without, 14.8 s
-  # unsanitised; the whole asan unity build on 2 cores 670 -> 497 s, its tests 328 -> 284 s). A null dereference still stops the run (ASan reports the SEGV with its stack),
-  # and a misaligned SIMD load faults the same way; the other UBSan checks (signed overflow,
+  # unsanitised; the whole asan unity build on 2 cores 670 -> 497 s, its tests 328 -> 284 s).
+  # A null dereference still stops the run (ASan reports the SEGV with its stack), and a
+  # misaligned SIMD load faults the same way; the other UBSan checks (signed overflow,
   # shifts, division by zero, bounds, object size, pointer overflow, vptr, enums, bools, returns,
   # builtins, unreachable) stay on.
   target_compile_options(kestrel_options INTERFACE

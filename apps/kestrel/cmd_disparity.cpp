@@ -17,6 +17,7 @@
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/gpu/stereo_matcher.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
@@ -146,7 +147,7 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
   cv::Mat disparity;
   const auto t0 = std::chrono::steady_clock::now();
   const sensor::MatchStats stats = matcher.match(l, r, disparity);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double ms = ms_since(t0);
   io::write_pfm(args.out, disparity, true);
   std::cout << "wrote " << args.out.string() << "\n";
   if (!args.depth_out.empty()) {

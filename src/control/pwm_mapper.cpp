@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"

@@ -3,7 +3,6 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
-#include <numbers>
 
 #include "kestrel/core/units.hpp"
 #include "kestrel/eval/csv_writer.hpp"

@@ -3,7 +3,6 @@
 
 #include <array>
 #include <cstdio>
-#include <numbers>
 
 #include "kestrel/core/units.hpp"
 #include "kestrel/io/trajectory_io.hpp"

@@ -2,7 +2,6 @@
 // a top view, and the RPE over time.
 #include <array>
 #include <cstdio>
-#include <numbers>
 
 #include "kestrel/core/units.hpp"
 #include "kestrel/eval/evaluation.hpp"

@@ -8,6 +8,7 @@
 
 #include "engines.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/stopwatch.hpp"
 
 namespace kestrel::gpu {
 
@@ -90,8 +91,7 @@ sensor::MatchStats StereoMatcher::match(const cv::Mat& left, const cv::Mat& righ
     const auto t0 = std::chrono::steady_clock::now();
     const sensor::MatchStats stats = cpu_->match(left, right, disparity);
     timing_ = {};
-    timing_.compute_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    timing_.compute_ms = ms_since(t0);
     return stats;
   }
   // The same input checks and messages as sensor::BlockMatcher::match.

@@ -3,7 +3,6 @@
 #include "kestrel/pipeline/controller_options.hpp"
 
 #include <cmath>
-#include <numbers>
 #include <sstream>
 
 #include "config_fields.hpp"

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 #include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"

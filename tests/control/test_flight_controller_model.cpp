@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numbers>
 
 #include "kestrel/core/units.hpp"
 #include "kestrel/sim/simulated_vehicle.hpp"

@@ -9,7 +9,6 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <numbers>
 
 #include "kestrel/control/pwm_mapper.hpp"
 #include "kestrel/control/pwm_output.hpp"

@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <functional>
-#include <numbers>
 #include <random>
 
 #include "kestrel/core/error.hpp"

@@ -10,7 +10,6 @@
 #include <cmath>
 #include <cstdint>
 #include <initializer_list>
-#include <numbers>
 #include <ostream>
 #include <random>
 #include <string>
