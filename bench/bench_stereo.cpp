@@ -5,10 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <ctime>
 #include <cstdio>
-#include <filesystem>
+#include <ctime>
 #include <exception>
+#include <filesystem>
 #include <functional>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
@@ -88,7 +89,7 @@ std::pair<double, double> time_ms(const std::function<void()>& f, int repeats) {
     const double c0 = thread_cpu_ms();
     f();
     cpu.push_back(thread_cpu_ms() - c0);
-    wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    wall.push_back(kestrel::ms_since(t0));
   }
   std::sort(wall.begin(), wall.end());
   std::sort(cpu.begin(), cpu.end());

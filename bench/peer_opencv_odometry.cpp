@@ -8,20 +8,20 @@
 // not undistorted (OpenCV's odometry assumes a pinhole image, as its users feed it). Prints
 // "PEER method=<m> frames=<N> failures=<F> mean_ms=<X> median_ms=<Y>" on stdout, where the time
 // is that of odometry.compute() plus the conversion to gray and the frame preparation.
+#include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
-#include <string>
-#include <vector>
-
-#include <Eigen/Dense>
 #include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/rgbd.hpp>
+#include <string>
+#include <vector>
 
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
@@ -81,8 +81,7 @@ int main(int argc, char** argv) {
           ++failures;  // the pose stays where it was (OpenCV gives no prediction)
         }
       }
-      const auto t1 = std::chrono::steady_clock::now();
-      if (prev) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      if (prev) ms.push_back(ms_since(t0));
       prev = cur;
       T_world_prev = T_world_cur;
       Eigen::Matrix3d R = T_world_cur.topLeftCorner<3, 3>();

@@ -15,6 +15,7 @@
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/eval/csv_writer.hpp"
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/io/camera_io.hpp"
@@ -253,13 +254,12 @@ void run_stereo_odometry(const OdometryArgs& args) {
     const io::StereoImages images = sequence.load_stereo(i);  // decoding: not timed
     const auto t0 = std::chrono::steady_clock::now();
     const odometry::StereoTrackResult r = stereo.track(images.t_ns, images.left, images.right);
-    const auto t1 = std::chrono::steady_clock::now();
+    const double track_ms = ms_since(t0);
     if (r.track.failure == odometry::TrackFailure::kInvalidInput) {
       throw InputError(args.dataset.string() + ": stereo pair " + std::to_string(i) + " (t_ns " +
                        std::to_string(images.t_ns) + ", mav0/cam0 and mav0/cam1): " +
                        r.track.failure_detail);
     }
-    const double track_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
     if (i > 0) ms.push_back(track_ms);
     frame_log.add(i, r.track, track_ms);
     fill_sum += r.match.fill_rate();
@@ -346,8 +346,7 @@ void run_odometry(const OdometryArgs& args) {
     odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
     const auto t0 = std::chrono::steady_clock::now();
     const odometry::TrackResult r = tracker.track(frame);
-    const auto t1 = std::chrono::steady_clock::now();
-    const double track_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    const double track_ms = ms_since(t0);
     if (i > 0) ms.push_back(track_ms);
     frame_log.add(i, r, track_ms);
     if (!r.ok()) {

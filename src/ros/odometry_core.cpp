@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/stopwatch.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/camera_io.hpp"
@@ -282,8 +283,7 @@ OdometryOutput OdometryCore::track_rgbd(std::int64_t t_ns, const cv::Mat& image,
   const auto t0 = std::chrono::steady_clock::now();
   const odometry::TrackResult r =
       m.tracker->track(odometry::RgbdFrame{t_ns, image, depth_m, depth_t_ns});
-  const auto t1 = std::chrono::steady_clock::now();
-  return m.finish(r, std::chrono::duration<double, std::milli>(t1 - t0).count());
+  return m.finish(r, ms_since(t0));
 }
 
 OdometryOutput OdometryCore::track_stereo(std::int64_t t_ns, const cv::Mat& left,
@@ -299,9 +299,7 @@ OdometryOutput OdometryCore::track_stereo(std::int64_t t_ns, const cv::Mat& left
   }
   const auto t0 = std::chrono::steady_clock::now();
   const odometry::StereoTrackResult r = m.stereo->track(t_ns, left, right);
-  const auto t1 = std::chrono::steady_clock::now();
-  OdometryOutput out =
-      m.finish(r.track, std::chrono::duration<double, std::milli>(t1 - t0).count());
+  OdometryOutput out = m.finish(r.track, ms_since(t0));
   out.disparity_fill = r.match.fill_rate();
   return out;
 }
