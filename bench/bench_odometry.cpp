@@ -360,6 +360,7 @@ void BM_TrackRealSequence(benchmark::State& s) {
   odometry::DirectTrackerOptions o;
   if (s.range(0) == 1) o.geometric_fallback = false;
   if (s.range(0) == 2) o.bicubic_finest_level = false;  // bilinear everywhere, for comparison
+  if (s.range(0) == 3) o.fallback_rotation_from_previous_frame = false;  // the keyframe's rotation
   const PinholeCamera cam = *io::camera_preset("fr1");
   int failures = 0, fallbacks = 0, keyframes = 0;
   long iterations = 0;
@@ -384,6 +385,6 @@ void BM_TrackRealSequence(benchmark::State& s) {
   s.counters["keyframes"] = keyframes;
   s.counters["iters_per_frame"] = static_cast<double>(iterations) / n;
 }
-BENCHMARK(BM_TrackRealSequence)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TrackRealSequence)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -71,6 +71,9 @@ struct DirectTracker::Impl {
 
   // Reference (keyframe) data.
   std::vector<ReferenceLevel> ref;
+  // The current frame's reference data, for the fallback's rotation from the previous frame
+  // (swapped with `ref` while it runs; reused, so allocation-free once warm).
+  std::vector<ReferenceLevel> current_ref;
   bool has_ref = false;
   TimeNs ref_t_ns = 0;
   SE3 T_world_ref;
@@ -157,6 +160,7 @@ DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOpt
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
   }
   impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
+  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
 }
 
 DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options)
@@ -189,6 +193,7 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
   }
   impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
+  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
 }
 
 DirectTracker::~DirectTracker() = default;
@@ -720,6 +725,46 @@ struct AlignRunner {
     return b;
   }
 
+  // The fallback's rotation against the previous frame
+  // (DirectTrackerOptions::fallback_rotation_from_previous_frame): the current frame is the
+  // reference (its own, blurred, gradients, points and normals) and the previous frame, blurred
+  // alike in a fast motion, is aligned to it with the joint residual and the fallback's checks.
+  // The current frame's reference data are built in a buffer of their own, swapped in and out
+  // (no copies): the keyframe's stay. Returns T_prev_cur, or nothing where it fails.
+  static std::optional<SE3> align_previous_to_current(DirectTracker::Impl& m,
+                                                      const DirectTrackerOptions& o,
+                                                      const std::vector<PinholeCamera>& cams,
+                                                      const SE3& T_prev_cur_guess,
+                                                      int& iterations) {
+    auto swap_previous = [&m] {
+      std::swap(m.pyramid, m.prev_pyramid);
+      std::swap(m.depth, m.prev_depth);
+      std::swap(m.depth_pyramid, m.prev_depth_pyramid);
+      std::swap(m.depth_pyramid_current, m.prev_depth_pyramid_current);
+    };
+    // Levels from fallback_rotation_coarsest_level down: the guess is the keyframe fallback's
+    // estimate, a fraction of a pixel off there. Both depth pyramids stay full height (the
+    // keyframe switch and the next frame read them).
+    DirectTrackerOptions levels = o;
+    levels.pyramid_levels =
+        std::clamp(o.fallback_rotation_coarsest_level + 1, o.finest_level + 1, o.pyramid_levels);
+    const bool keyframe_rectified = m.rs_ref_rectified;
+    std::swap(m.ref, m.current_ref);
+    m.rs_ref_rectified = m.rs_frame_rectified;
+    m.ensure_depth_pyramid(o);
+    TrackerAccess::build_reference(m, levels, cams);
+    swap_previous();
+    m.ensure_depth_pyramid(o);
+    // align() maps reference (current frame) points into the frame it samples (the previous).
+    const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
+    swap_previous();
+    std::swap(m.ref, m.current_ref);
+    m.rs_ref_rectified = keyframe_rectified;
+    iterations += b.result.iterations;
+    if (!b.result.ok()) return std::nullopt;
+    return b.T_cur_ref;
+  }
+
   static AlignOutcome align(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                             const SE3& T_cur_ref_guess, const AlignTerms& terms) {
     AlignOutcome out;
@@ -1153,6 +1198,18 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
   if (keyframe_lost) {
     m.T_world_ref = T_world_keyframe;
     m.ref_t_ns = keyframe_t_ns;
+  }
+  // The fallback's rotation from the previous frame (option; docs/odometry.md, "The fallback's
+  // rotation from the previous frame"); the keyframe alignment's translation is kept.
+  if (fallback && result.ok() && options_.fallback_rotation_from_previous_frame) {
+    const SE3 T_prev_cur_guess = m.T_world_prev.inverse() * m.T_world_ref * a.T_cur_ref.inverse();
+    const std::optional<SE3> T_prev_cur = AlignRunner::align_previous_to_current(
+        m, options_, impl_->level_cameras, T_prev_cur_guess, result.iterations);
+    if (T_prev_cur) {
+      const SE3 refined(T_prev_cur->so3(), T_prev_cur_guess.translation());
+      a.T_cur_ref = (m.T_world_ref.inverse() * m.T_world_prev * refined).inverse();
+      result.fallback_rotation_from_previous = true;
+    }
   }
   result.ref_t_ns = m.ref_t_ns;
   const SE3 T_ref_cur = a.T_cur_ref.inverse();

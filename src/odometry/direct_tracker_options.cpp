@@ -49,6 +49,8 @@ void visit_fields(DirectTrackerOptions& o, Visitor&& v) {
   v("keyframe_max_translation_rel", o.keyframe_max_translation_rel);
   v("retry_previous_frame", o.retry_previous_frame);
   v("geometric_fallback", o.geometric_fallback);
+  v("fallback_rotation_from_previous_frame", o.fallback_rotation_from_previous_frame);
+  v("fallback_rotation_coarsest_level", o.fallback_rotation_coarsest_level);
   v("max_level_jump_px", o.max_level_jump_px);
   v("min_overlap", o.min_overlap);
   v("min_inlier_ratio", o.min_inlier_ratio);
@@ -78,6 +80,10 @@ void DirectTrackerOptions::validate() const {
   if (pyramid_levels < 1 || pyramid_levels > 10) fail("pyramid_levels", "must be 1 to 10");
   if (finest_level < 0 || finest_level >= pyramid_levels) {
     fail("finest_level", "must be within [0, pyramid_levels)");
+  }
+  if (fallback_rotation_coarsest_level < 0) {
+    fail("fallback_rotation_coarsest_level",
+         "must be >= 0 (levels above pyramid_levels are not iterated)");
   }
   if (!(depth_pyramid_max_relative_spread >= 0.0)) {
     fail("depth_pyramid_max_relative_spread", "must be >= 0");

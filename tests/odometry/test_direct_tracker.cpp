@@ -241,6 +241,51 @@ TEST(DirectTracker, BlurredFrameIsTrackedByTheGeometricFallback) {
             << rotation_error_deg(r.T_ref_cur, T) << " deg\n";
 }
 
+// A fast pan: a sharp keyframe, then a frame blurred by a 41-pixel box along its rows. The
+// blurred frame takes the fallback; with fallback_rotation_from_previous_frame (the default) its
+// rotation comes from the previous frame aligned to it. Both ways it must follow the true motion,
+// and the translation is the keyframe alignment's in both.
+struct BlurredPanRun {
+  TrackResult blurred;
+  SE3 T_gt;
+};
+BlurredPanRun run_blurred_pan(const DirectTrackerOptions& options) {
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  DirectTracker tracker(cam, options);
+  EXPECT_TRUE(tracker.track(render(room, cam, SE3(), 0)).ok());
+  BlurredPanRun out;
+  out.T_gt = motion(0.01, 0.0, 0.005, 0.0, 2.0, 0.5);
+  auto f = render(room, cam, out.T_gt, 33'333'333LL);
+  cv::blur(f.image, f.image, cv::Size(41, 1));
+  out.blurred = tracker.track(f);
+  return out;
+}
+
+TEST(DirectTracker, FallbackRotationFromThePreviousFrameFollowsABlurredPan) {
+  DirectTrackerOptions keyframe_only;
+  keyframe_only.fallback_rotation_from_previous_frame = false;
+  const BlurredPanRun k = run_blurred_pan(keyframe_only);
+  const BlurredPanRun p = run_blurred_pan(DirectTrackerOptions{});
+  ASSERT_TRUE(k.blurred.ok()) << k.blurred.failure_detail;
+  ASSERT_TRUE(p.blurred.ok()) << p.blurred.failure_detail;
+  EXPECT_TRUE(k.blurred.geometric_fallback);
+  EXPECT_FALSE(k.blurred.fallback_rotation_from_previous);
+  EXPECT_TRUE(p.blurred.geometric_fallback);
+  EXPECT_TRUE(p.blurred.fallback_rotation_from_previous);
+  EXPECT_LT((p.blurred.T_world_cam.translation() - k.blurred.T_world_cam.translation()).norm(),
+            1e-9);
+  // A different rotation: the second alignment did run.
+  EXPECT_GT(rotation_error_deg(p.blurred.T_world_cam, k.blurred.T_world_cam), 1e-6);
+  const double k_rot = rotation_error_deg(k.blurred.T_world_cam, k.T_gt);
+  const double p_rot = rotation_error_deg(p.blurred.T_world_cam, p.T_gt);
+  std::cout << "blurred pan: rotation error, keyframe fallback " << k_rot
+            << " deg, from the previous frame " << p_rot << " deg; translation error "
+            << translation_error_m(p.blurred.T_world_cam, p.T_gt) * 1e3 << " mm\n";
+  EXPECT_LT(translation_error_m(p.blurred.T_world_cam, p.T_gt), 3e-3);
+  EXPECT_LT(p_rot, 0.1);
+}
+
 // 100 frames of a still camera with real-like sensor noise, tracked with `options`.
 struct StillCameraRun {
   int within_target = 0;  // frames within the 0.1 mm

@@ -84,6 +84,9 @@ struct TrackResult {
   /// one's estimate, and the geometric fallback was accepted by its own health checks
   /// (DirectTrackerOptions::geometric_fallback).
   bool geometric_fallback = false;
+  /// The fallback's rotation came from the previous frame
+  /// (DirectTrackerOptions::fallback_rotation_from_previous_frame).
+  bool fallback_rotation_from_previous = false;
   std::string failure_detail;  ///< human-readable, empty when ok
 };
 

@@ -119,6 +119,19 @@ struct DirectTrackerOptions {
   /// tracker fed by disparity has no depth maps), and not with use_depth_residual (the
   /// alignment has the geometric residual already).
   bool geometric_fallback = true;
+  /// The fallback's rotation from the previous frame: for a frame the fallback tracked (to its
+  /// keyframe), the previous frame, blurred alike in a fast motion, is aligned to this frame as
+  /// the reference (its own gradients, points and normals, as OpenCV's RgbdICPOdometry takes the
+  /// current frame's) with the same joint residual and checks. That rotation replaces the
+  /// keyframe alignment's; the translation, which drifts less against the keyframe, is kept, and
+  /// so is the keyframe. On by default since 2026-12-03: fr1/rpy part 1 2.063 -> 1.764 deg/s
+  /// (4 starts 2.078 -> 1.781), BM_TrackRealSequence 6.32 -> 7.65 ms per frame (docs/odometry.md,
+  /// "The fallback's rotation from the previous frame").
+  bool fallback_rotation_from_previous_frame = true;
+  /// ... iterated from this pyramid level down to finest_level (it starts from the keyframe
+  /// fallback's estimate): 2 measured as accurate as all 5 levels on fr1/rpy (4-start 1.781
+  /// against 1.776 deg/s) for ~1 ms less per frame; 1 lost 0.1 deg/s.
+  int fallback_rotation_coarsest_level = 2;
   /// A level's estimate farther than this from the coarser level's (in pixels of the coarser
   /// level: rotation f*|w| plus translation f*|t|/median depth) triggers the fallback.
   double max_level_jump_px = 2.0;
