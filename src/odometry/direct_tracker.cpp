@@ -143,6 +143,17 @@ struct DirectTracker::Impl {
 
   // The current frame's depth levels, built once per frame where a step needs them (the depth
   // residual, a new reference, the geometric fallback).
+  // The current frame's images and depth trade places with the previous frame's (buffers
+  // swapped, no copies): the retry and the fallback's rotation use the previous frame in the
+  // other role, then swap back.
+  void swap_current_and_previous() {
+    std::swap(pyramid, prev_pyramid);
+    std::swap(depth, prev_depth);
+    std::swap(depth_pyramid, prev_depth_pyramid);
+    std::swap(depth_pyramid_current, prev_depth_pyramid_current);
+    std::swap(disparity, prev_disparity);
+  }
+
   void ensure_depth_pyramid(const DirectTrackerOptions& o) {
     if (depth_pyramid_current) return;
     depth_pyramid.build(depth, o.pyramid_levels,
@@ -736,12 +747,6 @@ struct AlignRunner {
                                                       const std::vector<PinholeCamera>& cams,
                                                       const SE3& T_prev_cur_guess,
                                                       int& iterations) {
-    auto swap_previous = [&m] {
-      std::swap(m.pyramid, m.prev_pyramid);
-      std::swap(m.depth, m.prev_depth);
-      std::swap(m.depth_pyramid, m.prev_depth_pyramid);
-      std::swap(m.depth_pyramid_current, m.prev_depth_pyramid_current);
-    };
     // Levels from fallback_rotation_coarsest_level down: the guess is the keyframe fallback's
     // estimate, a fraction of a pixel off there. Both depth pyramids stay full height (the
     // keyframe switch and the next frame read them).
@@ -753,11 +758,11 @@ struct AlignRunner {
     m.rs_ref_rectified = m.rs_frame_rectified;
     m.ensure_depth_pyramid(o);
     TrackerAccess::build_reference(m, levels, cams);
-    swap_previous();
+    m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
     // align() maps reference (current frame) points into the frame it samples (the previous).
     const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
-    swap_previous();
+    m.swap_current_and_previous();
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = keyframe_rectified;
     iterations += b.result.iterations;
@@ -1164,19 +1169,12 @@ TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
   // A failure (typically motion blur against a sharp keyframe) tries the previous frame.
   if (!a.result.ok() && options_.retry_previous_frame && m.ref_t_ns != m.t_prev) {
     // The previous frame as the reference (its depth time offset is not kept: none applied).
-    auto swap_previous = [&m] {
-      std::swap(m.pyramid, m.prev_pyramid);
-      std::swap(m.depth, m.prev_depth);
-      std::swap(m.depth_pyramid, m.prev_depth_pyramid);
-      std::swap(m.depth_pyramid_current, m.prev_depth_pyramid_current);
-      std::swap(m.disparity, m.prev_disparity);
-    };
     const bool shift = m.depth_time_shift;
-    swap_previous();
+    m.swap_current_and_previous();
     m.depth_time_shift = false;
     m.rs_ref_rectified = m.rs_prev_rectified;
     TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-    swap_previous();
+    m.swap_current_and_previous();
     m.depth_time_shift = shift;
     m.T_world_ref = m.T_world_prev;
     m.ref_t_ns = m.t_prev;
