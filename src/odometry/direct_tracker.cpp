@@ -141,8 +141,6 @@ struct DirectTracker::Impl {
     if (o.use_depth_residual) ensure_depth_pyramid(o);
   }
 
-  // The current frame's depth levels, built once per frame where a step needs them (the depth
-  // residual, a new reference, the geometric fallback).
   // The current frame's images and depth trade places with the previous frame's (buffers
   // swapped, no copies): the retry and the fallback's rotation use the previous frame in the
   // other role, then swap back.
@@ -154,6 +152,8 @@ struct DirectTracker::Impl {
     std::swap(disparity, prev_disparity);
   }
 
+  // The current frame's depth levels, built once per frame where a step needs them (the depth
+  // residual, a new reference, the geometric fallback).
   void ensure_depth_pyramid(const DirectTrackerOptions& o) {
     if (depth_pyramid_current) return;
     depth_pyramid.build(depth, o.pyramid_levels,
@@ -760,8 +760,13 @@ struct AlignRunner {
     TrackerAccess::build_reference(m, levels, cams);
     m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
+    // The sampled depth map is now the previous frame's, whose time offset is not kept (as in
+    // the retry): none applied.
+    const bool shift = m.depth_time_shift;
+    m.depth_time_shift = false;
     // align() maps reference (current frame) points into the frame it samples (the previous).
     const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
+    m.depth_time_shift = shift;
     m.swap_current_and_previous();
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = keyframe_rectified;
