@@ -463,80 +463,21 @@ struct TrackerAccess {
   static int warp_geometric(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& dep,
                             const SE3& T_cur_ref, float max_spread) {
     if (m.depth_time_shift) return warp_geometric_shifted(m, L, dep, T_cur_ref, max_spread);
-    // Without early exits (a point without a normal or a usable sample gets zero residual,
-    // Jacobian and validity): BM_TrackAgainstKeyframeWithDepthResidual 13.8 -> 11.9 ms. GCC 12
-    // does not vectorise this loop, nor warp_residuals' ("control flow in loop").
-    const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] =
-        kernels::FloatPose::from(T_cur_ref);
-    const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
-    const float inv_fx = 1.0F / fx, inv_fy = 1.0F / fy;
-    const auto umax = static_cast<float>(dep.cols - 1);
-    const auto vmax = static_cast<float>(dep.rows - 1);
-    const float* data = dep.ptr<float>();
-    const auto stride = static_cast<int>(dep.step1());
-    const float spread = 1.0F + max_spread;
-    const float* px = L.x.data();
-    const float* py = L.y.data();
-    const float* pz = L.z.data();
-    const float* nxs = L.nx.data();
-    const float* nys = L.ny.data();
-    const float* nzs = L.nz.data();
-    const float* ndp = L.n_dot_p.data();
-    const std::uint8_t* has_n = L.has_normal.data();
-    float* res = m.geo_residual.data();
-    std::uint8_t* val = m.geo_valid.data();
-    float* j0 = m.geo_jac[0].data();
-    float* j1 = m.geo_jac[1].data();
-    float* j2 = m.geo_jac[2].data();
-    float* j3 = m.geo_jac[3].data();
-    float* j4 = m.geo_jac[4].data();
-    float* j5 = m.geo_jac[5].data();
-    int count = 0;
-    for (int i = 0; i < L.count; ++i) {
-      const float X = r00 * px[i] + r01 * py[i] + r02 * pz[i] + t0;
-      const float Y = r10 * px[i] + r11 * py[i] + r12 * pz[i] + t1;
-      const float Z = r20 * px[i] + r21 * py[i] + r22 * pz[i] + t2;
-      const float inv_z = 1.0F / Z;
-      float u = fx * X * inv_z + cx;
-      float v = fy * Y * inv_z + cy;
-      // NaN-safe: every comparison with NaN is false. Bitwise & (no short circuit): no branches.
-      const bool inside = (has_n[i] != 0) & (Z > 1e-3F) & (u >= 0.0F) & (u < umax) &
-                          (v >= 0.0F) & (v < vmax);
-      u = inside ? u : 0.0F;
-      v = inside ? v : 0.0F;
-      const int u0 = static_cast<int>(u);
-      const int v0 = static_cast<int>(v);
-      const float* p = data + v0 * stride + u0;
-      const float z00 = p[0], z01 = p[1], z10 = p[stride], z11 = p[stride + 1];
-      const bool depths = (z00 > 0.0F) & (z01 > 0.0F) & (z10 > 0.0F) & (z11 > 0.0F) &
-                          (z00 < 1e3F) & (z01 < 1e3F) & (z10 < 1e3F) & (z11 < 1e3F);
-      const float zmin = std::min(std::min(z00, z01), std::min(z10, z11));
-      const float zmax = std::max(std::max(z00, z01), std::max(z10, z11));
-      // Interpolated only within one surface (no occlusion boundary in the 2x2 cell).
-      const bool ok = inside & depths & (zmax <= spread * zmin);
-      const float a = u - static_cast<float>(u0);
-      const float b = v - static_cast<float>(v0);
-      const float z = (1.0F - b) * ((1.0F - a) * z00 + a * z01) + b * ((1.0F - a) * z10 + a * z11);
-      // Q_cur back-projected at (u, v); into the reference frame: R^T (Q_cur - t).
-      const float dx = (u - cx) * inv_fx * z - t0;
-      const float dy = (v - cy) * inv_fy * z - t1;
-      const float dz = z - t2;
-      const float qx = r00 * dx + r10 * dy + r20 * dz;
-      const float qy = r01 * dx + r11 * dy + r21 * dz;
-      const float qz = r02 * dx + r12 * dy + r22 * dz;
-      const float nx = nxs[i], ny = nys[i], nz = nzs[i];
-      res[i] = ok ? nx * qx + ny * qy + nz * qz - ndp[i] : 0.0F;
-      // J_g = -[n, Q_ref x n] (point_to_plane_pose_jacobian), in place for the accumulation.
-      j0[i] = ok ? -nx : 0.0F;
-      j1[i] = ok ? -ny : 0.0F;
-      j2[i] = ok ? -nz : 0.0F;
-      j3[i] = ok ? -(qy * nz - qz * ny) : 0.0F;
-      j4[i] = ok ? -(qz * nx - qx * nz) : 0.0F;
-      j5[i] = ok ? -(qx * ny - qy * nx) : 0.0F;
-      val[i] = ok ? 1 : 0;
-      count += ok ? 1 : 0;
-    }
-    return count;
+    const kernels::PlanePointsView points{L.x.data(),       L.y.data(),          L.z.data(),
+                                          L.nx.data(),      L.ny.data(),         L.nz.data(),
+                                          L.n_dot_p.data(), L.has_normal.data(), L.count};
+    const kernels::LevelImage depth{dep.ptr<float>(),
+                                    static_cast<int>(dep.step1()),
+                                    dep.cols,
+                                    dep.rows,
+                                    L.fx,
+                                    L.fy,
+                                    L.cx,
+                                    L.cy};
+    float* const jac[6] = {m.geo_jac[0].data(), m.geo_jac[1].data(), m.geo_jac[2].data(),
+                           m.geo_jac[3].data(), m.geo_jac[4].data(), m.geo_jac[5].data()};
+    return kernels::warp_point_to_plane(points, depth, kernels::FloatPose::from(T_cur_ref),
+                                        max_spread, m.geo_residual.data(), m.geo_valid.data(), jac);
   }
 
   // The same with the depth map taken at another time than the image

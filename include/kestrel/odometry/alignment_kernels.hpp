@@ -64,6 +64,37 @@ int warp_residuals_scalar(const PointsView& points, const LevelImage& cur,
                           const FloatPose& T_cur_ref, float alpha, float beta, float* residual,
                           std::uint8_t* valid, Sampling sampling = Sampling::kBilinear);
 
+/// Reference points with a unit normal for the point-to-plane residual: has_normal = 0 where
+/// the reference depth gives none (those points take no part).
+struct PlanePointsView {
+  const float* x = nullptr;
+  const float* y = nullptr;
+  const float* z = nullptr;
+  const float* nx = nullptr;
+  const float* ny = nullptr;
+  const float* nz = nullptr;
+  const float* n_dot_p = nullptr;
+  const std::uint8_t* has_normal = nullptr;
+  int count = 0;
+};
+
+/// The point-to-plane residual r_g,i = n_i . R^T (Q_i - t) - n_i . P_i, Q_i the current depth
+/// map `depth` (metres, its level's pinhole model) back-projected at pi(T_cur_ref P_i) and
+/// bilinearly interpolated, and its pose Jacobian J_g,i = -[n_i, (R^T (Q_i - t)) x n_i]
+/// (point_to_plane_pose_jacobian) into jac[0..5], for every point with a normal whose
+/// projection lies in [0, w-1) x [0, h-1) with Z > 1 mm and whose 2x2 depth cell is one surface
+/// (every depth in (0, 1e3), the farthest within (1 + max_spread) of the nearest): valid_i = 1.
+/// Elsewhere r, J and valid are 0. Returns the number of valid points. Uses AVX2 gathers where
+/// compiled for them, else warp_point_to_plane_scalar.
+int warp_point_to_plane(const PlanePointsView& points, const LevelImage& depth,
+                        const FloatPose& T_cur_ref, float max_spread, float* residual,
+                        std::uint8_t* valid, float* const* jac);
+/// The reference implementation (one point at a time); results equal warp_point_to_plane's to
+/// float rounding.
+int warp_point_to_plane_scalar(const PlanePointsView& points, const LevelImage& depth,
+                               const FloatPose& T_cur_ref, float max_spread, float* residual,
+                               std::uint8_t* valid, float* const* jac);
+
 /// sum_i rho(r_i / sigma) over valid points plus rho_max = c^2/6 per invalid point (Tukey cost,
 /// thesis eq. 3.39 integrated): the robust cost a step is accepted on.
 double tukey_cost_sum(const float* residual, const std::uint8_t* valid, int count, float inv_sigma,
