@@ -124,8 +124,8 @@ struct DirectTrackerOptions {
   /// the reference (its own gradients, points and normals, as OpenCV's RgbdICPOdometry takes the
   /// current frame's) with the same joint residual and checks. That rotation replaces the
   /// keyframe alignment's; the translation, which drifts less against the keyframe, is kept, and
-  /// so is the keyframe. On by default since 2026-12-03: fr1/rpy part 1 2.063 -> 1.764 deg/s
-  /// (4 starts 2.078 -> 1.781), BM_TrackRealSequence 6.32 -> 7.65 ms per frame (docs/odometry.md,
+  /// so is the keyframe. On by default since 2026-12-03: fr1/rpy part 1 2.063 -> 1.766 deg/s
+  /// (4 starts 2.078 -> 1.782), BM_TrackRealSequence 5.31 -> 6.32 ms per frame (docs/odometry.md,
   /// "The fallback's rotation from the previous frame").
   bool fallback_rotation_from_previous_frame = true;
   /// ... iterated from this pyramid level down to finest_level (it starts from the keyframe
