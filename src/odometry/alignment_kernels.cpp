@@ -102,6 +102,80 @@ constexpr std::array<std::uint64_t, 256> kMaskBytes = [] {
   return t;
 }();
 
+// 8 points moved by T_cur_ref and projected with a level's pinhole model, as both warps need
+// them: `inside` = Z > 1 mm and (u, v) in [0, w-1) x [0, h-1) (ordered comparisons: false for
+// NaN, as in the scalar loops); outside lanes are moved to pixel (0, 0), so that every gather
+// stays in bounds. x0, y0 are the sample cell's corner and ax, ay the position within it.
+struct Projected8 {
+  __m256 u, v, inside, ax, ay;
+  __m256i x0, y0;
+};
+class Projector8 {
+ public:
+  Projector8(const FloatPose& T, const LevelImage& level)
+      : r00_(_mm256_set1_ps(T.r00)),
+        r01_(_mm256_set1_ps(T.r01)),
+        r02_(_mm256_set1_ps(T.r02)),
+        r10_(_mm256_set1_ps(T.r10)),
+        r11_(_mm256_set1_ps(T.r11)),
+        r12_(_mm256_set1_ps(T.r12)),
+        r20_(_mm256_set1_ps(T.r20)),
+        r21_(_mm256_set1_ps(T.r21)),
+        r22_(_mm256_set1_ps(T.r22)),
+        t0_(_mm256_set1_ps(T.t0)),
+        t1_(_mm256_set1_ps(T.t1)),
+        t2_(_mm256_set1_ps(T.t2)),
+        fx_(_mm256_set1_ps(level.fx)),
+        fy_(_mm256_set1_ps(level.fy)),
+        cx_(_mm256_set1_ps(level.cx)),
+        cy_(_mm256_set1_ps(level.cy)),
+        umax_(_mm256_set1_ps(static_cast<float>(level.width - 1))),
+        vmax_(_mm256_set1_ps(static_cast<float>(level.height - 1))) {}
+
+  Projected8 operator()(const float* x, const float* y, const float* z) const {
+    const __m256 px = _mm256_loadu_ps(x), py = _mm256_loadu_ps(y), pz = _mm256_loadu_ps(z);
+    const __m256 X =
+        _mm256_fmadd_ps(r00_, px, _mm256_fmadd_ps(r01_, py, _mm256_fmadd_ps(r02_, pz, t0_)));
+    const __m256 Y =
+        _mm256_fmadd_ps(r10_, px, _mm256_fmadd_ps(r11_, py, _mm256_fmadd_ps(r12_, pz, t1_)));
+    const __m256 Z =
+        _mm256_fmadd_ps(r20_, px, _mm256_fmadd_ps(r21_, py, _mm256_fmadd_ps(r22_, pz, t2_)));
+    const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0F), Z);
+    Projected8 p;
+    p.u = _mm256_fmadd_ps(_mm256_mul_ps(fx_, X), inv_z, cx_);
+    p.v = _mm256_fmadd_ps(_mm256_mul_ps(fy_, Y), inv_z, cy_);
+    const __m256 zero = _mm256_setzero_ps();
+    __m256 m = _mm256_and_ps(_mm256_cmp_ps(Z, _mm256_set1_ps(1e-3F), _CMP_GT_OQ),
+                             _mm256_cmp_ps(p.u, zero, _CMP_GE_OQ));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(p.u, umax_, _CMP_LT_OQ));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(p.v, zero, _CMP_GE_OQ));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(p.v, vmax_, _CMP_LT_OQ));
+    p.inside = m;
+    p.u = _mm256_and_ps(p.u, m);
+    p.v = _mm256_and_ps(p.v, m);
+    p.x0 = _mm256_cvttps_epi32(p.u);
+    p.y0 = _mm256_cvttps_epi32(p.v);
+    p.ax = _mm256_sub_ps(p.u, _mm256_cvtepi32_ps(p.x0));
+    p.ay = _mm256_sub_ps(p.v, _mm256_cvtepi32_ps(p.y0));
+    return p;
+  }
+
+ private:
+  __m256 r00_, r01_, r02_, r10_, r11_, r12_, r20_, r21_, r22_, t0_, t1_, t2_;
+  __m256 fx_, fy_, cx_, cy_, umax_, vmax_;
+};
+
+// The 2x2 cell at (x0, y0) of 8 lanes: four gathers.
+struct Cell8 {
+  __m256 p00, p01, p10, p11;
+};
+inline Cell8 gather_cell(const LevelImage& img, __m256i x0, __m256i y0) {
+  const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y0, _mm256_set1_epi32(img.stride)), x0);
+  return {_mm256_i32gather_ps(img.data, idx, 4), _mm256_i32gather_ps(img.data + 1, idx, 4),
+          _mm256_i32gather_ps(img.data + img.stride, idx, 4),
+          _mm256_i32gather_ps(img.data + img.stride + 1, idx, 4)};
+}
+
 // Catmull-Rom weights of 8 lanes (catmull_rom_weights).
 inline void catmull_rom_weights8(__m256 t, __m256 w[4]) {
   const __m256 half = _mm256_set1_ps(0.5F);
@@ -163,58 +237,17 @@ int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatP
                    Sampling sampling) {
 #ifdef KESTREL_KERNELS_AVX2
   const bool bicubic = sampling == Sampling::kBicubic && cur.width >= 4 && cur.height >= 4;
-  const FloatPose& T = T_cur_ref;
-  const __m256 r00 = _mm256_set1_ps(T.r00), r01 = _mm256_set1_ps(T.r01),
-               r02 = _mm256_set1_ps(T.r02);
-  const __m256 r10 = _mm256_set1_ps(T.r10), r11 = _mm256_set1_ps(T.r11),
-               r12 = _mm256_set1_ps(T.r12);
-  const __m256 r20 = _mm256_set1_ps(T.r20), r21 = _mm256_set1_ps(T.r21),
-               r22 = _mm256_set1_ps(T.r22);
-  const __m256 t0 = _mm256_set1_ps(T.t0), t1 = _mm256_set1_ps(T.t1), t2 = _mm256_set1_ps(T.t2);
-  const __m256 fx = _mm256_set1_ps(cur.fx), fy = _mm256_set1_ps(cur.fy);
-  const __m256 cx = _mm256_set1_ps(cur.cx), cy = _mm256_set1_ps(cur.cy);
-  const __m256 zmin = _mm256_set1_ps(1e-3F), zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0F);
-  const __m256 umax = _mm256_set1_ps(static_cast<float>(cur.width - 1));
-  const __m256 vmax = _mm256_set1_ps(static_cast<float>(cur.height - 1));
+  const Projector8 project(T_cur_ref, cur);
   const __m256 va = _mm256_set1_ps(alpha), vb = _mm256_set1_ps(beta);
-  const __m256i stride = _mm256_set1_epi32(cur.stride);
-  const float* d00 = cur.data;
-  const float* d01 = cur.data + 1;
-  const float* d10 = cur.data + cur.stride;
-  const float* d11 = cur.data + cur.stride + 1;
   int inside_count = 0;
   int i = 0;
   for (; i + 8 <= points.count; i += 8) {
-    const __m256 px = _mm256_loadu_ps(points.x + i);
-    const __m256 py = _mm256_loadu_ps(points.y + i);
-    const __m256 pz = _mm256_loadu_ps(points.z + i);
-    const __m256 X =
-        _mm256_fmadd_ps(r00, px, _mm256_fmadd_ps(r01, py, _mm256_fmadd_ps(r02, pz, t0)));
-    const __m256 Y =
-        _mm256_fmadd_ps(r10, px, _mm256_fmadd_ps(r11, py, _mm256_fmadd_ps(r12, pz, t1)));
-    const __m256 Z =
-        _mm256_fmadd_ps(r20, px, _mm256_fmadd_ps(r21, py, _mm256_fmadd_ps(r22, pz, t2)));
-    const __m256 inv_z = _mm256_div_ps(one, Z);
-    __m256 u = _mm256_fmadd_ps(_mm256_mul_ps(fx, X), inv_z, cx);
-    __m256 v = _mm256_fmadd_ps(_mm256_mul_ps(fy, Y), inv_z, cy);
-    // Ordered comparisons: false for NaN, as in the scalar version.
-    __m256 m =
-        _mm256_and_ps(_mm256_cmp_ps(Z, zmin, _CMP_GT_OQ), _mm256_cmp_ps(u, zero, _CMP_GE_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(u, umax, _CMP_LT_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(v, zero, _CMP_GE_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(v, vmax, _CMP_LT_OQ));
-    u = _mm256_and_ps(u, m);  // invalid lanes sample pixel (0, 0): every gather stays in bounds
-    v = _mm256_and_ps(v, m);
-    const __m256i x0 = _mm256_cvttps_epi32(u);
-    const __m256i y0 = _mm256_cvttps_epi32(v);
-    const __m256 ax = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
-    const __m256 ay = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
+    const Projected8 p = project(points.x + i, points.y + i, points.z + i);
+    const __m256 m = p.inside;
+    const __m256i x0 = p.x0, y0 = p.y0;
+    const __m256 ax = p.ax, ay = p.ay;
     auto bilinear = [&] {
-      const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y0, stride), x0);
-      const __m256 p00 = _mm256_i32gather_ps(d00, idx, 4);
-      const __m256 p01 = _mm256_i32gather_ps(d01, idx, 4);
-      const __m256 p10 = _mm256_i32gather_ps(d10, idx, 4);
-      const __m256 p11 = _mm256_i32gather_ps(d11, idx, 4);
+      const auto [p00, p01, p10, p11] = gather_cell(cur, x0, y0);
       const __m256 top = _mm256_fmadd_ps(ax, _mm256_sub_ps(p01, p00), p00);
       const __m256 bottom = _mm256_fmadd_ps(ax, _mm256_sub_ps(p11, p10), p10);
       return _mm256_fmadd_ps(ay, _mm256_sub_ps(bottom, top), top);
@@ -320,6 +353,7 @@ int warp_point_to_plane(const PlanePointsView& points, const LevelImage& depth,
                         std::uint8_t* valid, float* const* jac) {
 #ifdef KESTREL_KERNELS_AVX2
   const FloatPose& T = T_cur_ref;
+  const Projector8 project(T, depth);
   const __m256 r00 = _mm256_set1_ps(T.r00), r01 = _mm256_set1_ps(T.r01),
                r02 = _mm256_set1_ps(T.r02);
   const __m256 r10 = _mm256_set1_ps(T.r10), r11 = _mm256_set1_ps(T.r11),
@@ -327,53 +361,22 @@ int warp_point_to_plane(const PlanePointsView& points, const LevelImage& depth,
   const __m256 r20 = _mm256_set1_ps(T.r20), r21 = _mm256_set1_ps(T.r21),
                r22 = _mm256_set1_ps(T.r22);
   const __m256 t0 = _mm256_set1_ps(T.t0), t1 = _mm256_set1_ps(T.t1), t2 = _mm256_set1_ps(T.t2);
-  const __m256 fx = _mm256_set1_ps(depth.fx), fy = _mm256_set1_ps(depth.fy);
   const __m256 cx = _mm256_set1_ps(depth.cx), cy = _mm256_set1_ps(depth.cy);
   const __m256 inv_fx = _mm256_set1_ps(1.0F / depth.fx), inv_fy = _mm256_set1_ps(1.0F / depth.fy);
-  const __m256 zmin_cam = _mm256_set1_ps(1e-3F), zero = _mm256_setzero_ps();
-  const __m256 one = _mm256_set1_ps(1.0F), far = _mm256_set1_ps(1e3F);
+  const __m256 zero = _mm256_setzero_ps(), far = _mm256_set1_ps(1e3F);
   const __m256 spread = _mm256_set1_ps(1.0F + max_spread);
-  const __m256 umax = _mm256_set1_ps(static_cast<float>(depth.width - 1));
-  const __m256 vmax = _mm256_set1_ps(static_cast<float>(depth.height - 1));
-  const __m256i stride = _mm256_set1_epi32(depth.stride);
-  const float* d00 = depth.data;
-  const float* d01 = depth.data + 1;
-  const float* d10 = depth.data + depth.stride;
-  const float* d11 = depth.data + depth.stride + 1;
   int count = 0;
   int i = 0;
   for (; i + 8 <= points.count; i += 8) {
-    const __m256 px = _mm256_loadu_ps(points.x + i);
-    const __m256 py = _mm256_loadu_ps(points.y + i);
-    const __m256 pz = _mm256_loadu_ps(points.z + i);
-    const __m256 X =
-        _mm256_fmadd_ps(r00, px, _mm256_fmadd_ps(r01, py, _mm256_fmadd_ps(r02, pz, t0)));
-    const __m256 Y =
-        _mm256_fmadd_ps(r10, px, _mm256_fmadd_ps(r11, py, _mm256_fmadd_ps(r12, pz, t1)));
-    const __m256 Z =
-        _mm256_fmadd_ps(r20, px, _mm256_fmadd_ps(r21, py, _mm256_fmadd_ps(r22, pz, t2)));
-    const __m256 inv_z = _mm256_div_ps(one, Z);
-    __m256 u = _mm256_fmadd_ps(_mm256_mul_ps(fx, X), inv_z, cx);
-    __m256 v = _mm256_fmadd_ps(_mm256_mul_ps(fy, Y), inv_z, cy);
+    const Projected8 p = project(points.x + i, points.y + i, points.z + i);
     std::uint64_t has_bytes = 0;
     std::memcpy(&has_bytes, points.has_normal + i, 8);
     const __m256i has = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(static_cast<long long>(has_bytes)));
-    __m256 m = _mm256_castsi256_ps(_mm256_cmpgt_epi32(has, _mm256_setzero_si256()));
-    // Ordered comparisons: false for NaN, as in the scalar version.
-    m = _mm256_and_ps(m, _mm256_cmp_ps(Z, zmin_cam, _CMP_GT_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(u, zero, _CMP_GE_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(u, umax, _CMP_LT_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(v, zero, _CMP_GE_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(v, vmax, _CMP_LT_OQ));
-    u = _mm256_and_ps(u, m);
-    v = _mm256_and_ps(v, m);
-    const __m256i x0 = _mm256_cvttps_epi32(u);
-    const __m256i y0 = _mm256_cvttps_epi32(v);
-    const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y0, stride), x0);
-    const __m256 z00 = _mm256_i32gather_ps(d00, idx, 4);
-    const __m256 z01 = _mm256_i32gather_ps(d01, idx, 4);
-    const __m256 z10 = _mm256_i32gather_ps(d10, idx, 4);
-    const __m256 z11 = _mm256_i32gather_ps(d11, idx, 4);
+    __m256 m = _mm256_and_ps(p.inside,
+                             _mm256_castsi256_ps(_mm256_cmpgt_epi32(has, _mm256_setzero_si256())));
+    const __m256 u = p.u, v = p.v;
+    const __m256i x0 = p.x0, y0 = p.y0;
+    const auto [z00, z01, z10, z11] = gather_cell(depth, x0, y0);
     auto in_range = [&](__m256 zz) {
       return _mm256_and_ps(_mm256_cmp_ps(zz, zero, _CMP_GT_OQ), _mm256_cmp_ps(zz, far, _CMP_LT_OQ));
     };
@@ -382,8 +385,7 @@ int warp_point_to_plane(const PlanePointsView& points, const LevelImage& depth,
     const __m256 zlo = _mm256_min_ps(_mm256_min_ps(z00, z01), _mm256_min_ps(z10, z11));
     const __m256 zhi = _mm256_max_ps(_mm256_max_ps(z00, z01), _mm256_max_ps(z10, z11));
     m = _mm256_and_ps(m, _mm256_cmp_ps(zhi, _mm256_mul_ps(spread, zlo), _CMP_LE_OQ));
-    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(x0));
-    const __m256 b = _mm256_sub_ps(v, _mm256_cvtepi32_ps(y0));
+    const __m256 a = p.ax, b = p.ay;
     const __m256 top = _mm256_fmadd_ps(a, _mm256_sub_ps(z01, z00), z00);
     const __m256 bottom = _mm256_fmadd_ps(a, _mm256_sub_ps(z11, z10), z10);
     const __m256 z = _mm256_fmadd_ps(b, _mm256_sub_ps(bottom, top), top);
