@@ -110,46 +110,55 @@ struct Projected8 {
   __m256 u, v, inside, ax, ay;
   __m256i x0, y0;
 };
-class Projector8 {
- public:
-  Projector8(const FloatPose& T, const LevelImage& level)
-      : r00_(_mm256_set1_ps(T.r00)),
-        r01_(_mm256_set1_ps(T.r01)),
-        r02_(_mm256_set1_ps(T.r02)),
-        r10_(_mm256_set1_ps(T.r10)),
-        r11_(_mm256_set1_ps(T.r11)),
-        r12_(_mm256_set1_ps(T.r12)),
-        r20_(_mm256_set1_ps(T.r20)),
-        r21_(_mm256_set1_ps(T.r21)),
-        r22_(_mm256_set1_ps(T.r22)),
-        t0_(_mm256_set1_ps(T.t0)),
-        t1_(_mm256_set1_ps(T.t1)),
-        t2_(_mm256_set1_ps(T.t2)),
-        fx_(_mm256_set1_ps(level.fx)),
-        fy_(_mm256_set1_ps(level.fy)),
-        cx_(_mm256_set1_ps(level.cx)),
-        cy_(_mm256_set1_ps(level.cy)),
-        umax_(_mm256_set1_ps(static_cast<float>(level.width - 1))),
-        vmax_(_mm256_set1_ps(static_cast<float>(level.height - 1))) {}
+// T_cur_ref broadcast to 8 lanes.
+struct PoseLanes {
+  __m256 r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2;
+  explicit PoseLanes(const FloatPose& T)
+      : r00(_mm256_set1_ps(T.r00)),
+        r01(_mm256_set1_ps(T.r01)),
+        r02(_mm256_set1_ps(T.r02)),
+        r10(_mm256_set1_ps(T.r10)),
+        r11(_mm256_set1_ps(T.r11)),
+        r12(_mm256_set1_ps(T.r12)),
+        r20(_mm256_set1_ps(T.r20)),
+        r21(_mm256_set1_ps(T.r21)),
+        r22(_mm256_set1_ps(T.r22)),
+        t0(_mm256_set1_ps(T.t0)),
+        t1(_mm256_set1_ps(T.t1)),
+        t2(_mm256_set1_ps(T.t2)) {}
+};
+
+struct Projector8 {
+  PoseLanes T;
+  __m256 fx, fy, cx, cy, umax, vmax;
+
+  Projector8(const FloatPose& pose, const LevelImage& level)
+      : T(pose),
+        fx(_mm256_set1_ps(level.fx)),
+        fy(_mm256_set1_ps(level.fy)),
+        cx(_mm256_set1_ps(level.cx)),
+        cy(_mm256_set1_ps(level.cy)),
+        umax(_mm256_set1_ps(static_cast<float>(level.width - 1))),
+        vmax(_mm256_set1_ps(static_cast<float>(level.height - 1))) {}
 
   Projected8 operator()(const float* x, const float* y, const float* z) const {
     const __m256 px = _mm256_loadu_ps(x), py = _mm256_loadu_ps(y), pz = _mm256_loadu_ps(z);
     const __m256 X =
-        _mm256_fmadd_ps(r00_, px, _mm256_fmadd_ps(r01_, py, _mm256_fmadd_ps(r02_, pz, t0_)));
+        _mm256_fmadd_ps(T.r00, px, _mm256_fmadd_ps(T.r01, py, _mm256_fmadd_ps(T.r02, pz, T.t0)));
     const __m256 Y =
-        _mm256_fmadd_ps(r10_, px, _mm256_fmadd_ps(r11_, py, _mm256_fmadd_ps(r12_, pz, t1_)));
+        _mm256_fmadd_ps(T.r10, px, _mm256_fmadd_ps(T.r11, py, _mm256_fmadd_ps(T.r12, pz, T.t1)));
     const __m256 Z =
-        _mm256_fmadd_ps(r20_, px, _mm256_fmadd_ps(r21_, py, _mm256_fmadd_ps(r22_, pz, t2_)));
+        _mm256_fmadd_ps(T.r20, px, _mm256_fmadd_ps(T.r21, py, _mm256_fmadd_ps(T.r22, pz, T.t2)));
     const __m256 inv_z = _mm256_div_ps(_mm256_set1_ps(1.0F), Z);
     Projected8 p;
-    p.u = _mm256_fmadd_ps(_mm256_mul_ps(fx_, X), inv_z, cx_);
-    p.v = _mm256_fmadd_ps(_mm256_mul_ps(fy_, Y), inv_z, cy_);
+    p.u = _mm256_fmadd_ps(_mm256_mul_ps(fx, X), inv_z, cx);
+    p.v = _mm256_fmadd_ps(_mm256_mul_ps(fy, Y), inv_z, cy);
     const __m256 zero = _mm256_setzero_ps();
     __m256 m = _mm256_and_ps(_mm256_cmp_ps(Z, _mm256_set1_ps(1e-3F), _CMP_GT_OQ),
                              _mm256_cmp_ps(p.u, zero, _CMP_GE_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(p.u, umax_, _CMP_LT_OQ));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(p.u, umax, _CMP_LT_OQ));
     m = _mm256_and_ps(m, _mm256_cmp_ps(p.v, zero, _CMP_GE_OQ));
-    m = _mm256_and_ps(m, _mm256_cmp_ps(p.v, vmax_, _CMP_LT_OQ));
+    m = _mm256_and_ps(m, _mm256_cmp_ps(p.v, vmax, _CMP_LT_OQ));
     p.inside = m;
     p.u = _mm256_and_ps(p.u, m);
     p.v = _mm256_and_ps(p.v, m);
@@ -159,10 +168,6 @@ class Projector8 {
     p.ay = _mm256_sub_ps(p.v, _mm256_cvtepi32_ps(p.y0));
     return p;
   }
-
- private:
-  __m256 r00_, r01_, r02_, r10_, r11_, r12_, r20_, r21_, r22_, t0_, t1_, t2_;
-  __m256 fx_, fy_, cx_, cy_, umax_, vmax_;
 };
 
 // The 2x2 cell at (x0, y0) of 8 lanes: four gathers.
@@ -352,16 +357,9 @@ int warp_point_to_plane(const PlanePointsView& points, const LevelImage& depth,
                         const FloatPose& T_cur_ref, float max_spread, float* residual,
                         std::uint8_t* valid, float* const* jac) {
 #ifdef KESTREL_KERNELS_AVX2
-  const FloatPose& T = T_cur_ref;
-  const Projector8 project(T, depth);
-  const __m256 r00 = _mm256_set1_ps(T.r00), r01 = _mm256_set1_ps(T.r01),
-               r02 = _mm256_set1_ps(T.r02);
-  const __m256 r10 = _mm256_set1_ps(T.r10), r11 = _mm256_set1_ps(T.r11),
-               r12 = _mm256_set1_ps(T.r12);
-  const __m256 r20 = _mm256_set1_ps(T.r20), r21 = _mm256_set1_ps(T.r21),
-               r22 = _mm256_set1_ps(T.r22);
-  const __m256 t0 = _mm256_set1_ps(T.t0), t1 = _mm256_set1_ps(T.t1), t2 = _mm256_set1_ps(T.t2);
-  const __m256 cx = _mm256_set1_ps(depth.cx), cy = _mm256_set1_ps(depth.cy);
+  const Projector8 project(T_cur_ref, depth);
+  const auto& [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] = project.T;
+  const __m256 cx = project.cx, cy = project.cy;
   const __m256 inv_fx = _mm256_set1_ps(1.0F / depth.fx), inv_fy = _mm256_set1_ps(1.0F / depth.fy);
   const __m256 zero = _mm256_setzero_ps(), far = _mm256_set1_ps(1e3F);
   const __m256 spread = _mm256_set1_ps(1.0F + max_spread);
