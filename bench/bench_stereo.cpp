@@ -19,9 +19,9 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/stopwatch.hpp"
 #include "kestrel/io/euroc.hpp"
+#include "kestrel/lab/stereo_evaluation.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
-#include "kestrel/sensor/stereo_evaluation.hpp"
 
 namespace fs = std::filesystem;
 using kestrel::sensor::BlockMatcher;
@@ -146,9 +146,9 @@ int run(const fs::path& data, bool quick) {
   if (!fs::is_directory(data)) {
     throw kestrel::InputError("DATA_DIR '" + data.string() + "' is not a folder");
   }
-  std::vector<kestrel::sensor::MiddleburyPair> pairs;
+  std::vector<kestrel::lab::MiddleburyPair> pairs;
   for (const char* name : {"tsukuba", "venus", "teddy"}) {
-    pairs.push_back(kestrel::sensor::load_middlebury_pair(data / "middlebury" / name));
+    pairs.push_back(kestrel::lab::load_middlebury_pair(data / "middlebury" / name));
   }
   std::printf("Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity) / fill %%\n", kBlock);
   std::printf("%-22s %16s %16s %16s\n", "matcher", "tsukuba", "venus", "teddy");
@@ -157,7 +157,7 @@ int run(const fs::path& data, bool quick) {
     for (const auto& p : pairs) {
       const int num = (p.max_disparity + 1 + 15) / 16 * 16;  // OpenCV needs multiples of 16
       const cv::Mat d = peer.run(gray(p.left), gray(p.right), num);
-      const auto s = kestrel::sensor::score_disparity(d, p.truth_px, 1.0);
+      const auto s = kestrel::lab::score_disparity(d, p.truth_px, 1.0);
       std::printf("   %6.1f / %5.1f", 100.0 * s.bad_rate(), 100.0 * s.fill_rate());
     }
     std::printf("\n");

@@ -31,12 +31,3 @@ if(KESTREL_SANITIZE)
     -fno-sanitize-recover=undefined)
   target_link_options(kestrel_options INTERFACE -fsanitize=address,undefined)
 endif()
-
-# kestrel_add_module(NAME SOURCES ... DEPS ...): one static library per part of the system.
-function(kestrel_add_module name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
-  add_library(kestrel_${name} STATIC ${ARG_SOURCES})
-  add_library(kestrel::${name} ALIAS kestrel_${name})
-  target_include_directories(kestrel_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include)
-  target_link_libraries(kestrel_${name} PUBLIC ${ARG_DEPS} PRIVATE kestrel_options)
-endfunction()

@@ -23,9 +23,9 @@
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/io/pfm.hpp"
 #include "kestrel/io/yaml_file.hpp"
+#include "kestrel/lab/stereo_evaluation.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
-#include "kestrel/sensor/stereo_evaluation.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -164,7 +164,8 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
     std::cout << "wrote " << args.depth_out.string() << " (16-bit depth, 5000 units per metre, 0 = none)\n";
   }
   if (!args.color_out.empty()) {
-    if (!cv::imwrite(args.color_out.string(), sensor::colorize_disparity(disparity, args.options.max_disparity))) {
+    if (!cv::imwrite(args.color_out.string(),
+                     lab::colorize_disparity(disparity, args.options.max_disparity))) {
       throw InputError(args.color_out.string() + ": cannot write");
     }
     std::cout << "wrote " << args.color_out.string() << "\n";

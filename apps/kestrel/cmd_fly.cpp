@@ -54,7 +54,7 @@ void run_fly(const FlyArgs& a) {
   if (!a.matcher_yaml.empty()) {
     options.vision.matcher = sensor::BlockMatcherOptions::load_yaml(a.matcher_yaml);
   }
-  if (!a.projector.empty()) options.vision.projector_mode = sensor::parse_projector_mode(a.projector);
+  if (!a.projector.empty()) options.vision.projector_mode = sim::parse_projector_mode(a.projector);
   if (!a.vo_reference.empty()) {
     try {
       options.vision.measurement_reference = fusion::parse_odometry_reference(a.vo_reference);

@@ -12,10 +12,8 @@
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
-#include "kestrel/fusion/experiments.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
-#include "kestrel/fusion/simulation.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/io/odometry_frame_log.hpp"
@@ -23,6 +21,8 @@
 #include "kestrel/io/text_lines.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/yaml_file.hpp"
+#include "kestrel/lab/fusion_experiments.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -307,7 +307,7 @@ void run_fuse_eval(const FuseEvalArgs& a) {
   options.init_sigma_gyro_bias_rad_s = a.init_sigma_gyro_bias;
   options.init_sigma_accel_bias_m_s2 = a.init_sigma_accel_bias;
   options.first_estimate_jacobians = !a.no_first_estimates;
-  fusion::EurocExperimentOptions eo;
+  lab::EurocExperimentOptions eo;
   eo.seed = a.seed;
   eo.static_gyro_bias_init = a.static_bias_init;
   eo.vo_keyframes = a.vo_keyframes;
@@ -330,24 +330,23 @@ void run_fuse_eval(const FuseEvalArgs& a) {
   if (!a.skip_real) {
     // The first seed's runs in full; with --seeds N the spread of the targets' figures over
     // the N draws (each run is one draw of the measurement noise).
-    std::vector<fusion::EurocExperimentResult> v1_02, v1_01;
+    std::vector<lab::EurocExperimentResult> v1_02, v1_01;
     for (int k = 0; k < a.seeds; ++k) {
       eo.seed = a.seed + static_cast<std::uint64_t>(k);
-      v1_02.push_back(
-          fusion::run_v1_02(data / "euroc" / "V1_02_medium_imu_groundtruth", options, eo));
-      v1_01.push_back(fusion::run_v1_01(data / "euroc" / "V1_01_easy_part1", options, eo));
+      v1_02.push_back(lab::run_v1_02(data / "euroc" / "V1_02_medium_imu_groundtruth", options, eo));
+      v1_01.push_back(lab::run_v1_01(data / "euroc" / "V1_01_easy_part1", options, eo));
       if (k == 0)
-        std::cout << fusion::format_result(v1_02.front()) << fusion::format_result(v1_01.front());
+        std::cout << lab::format_result(v1_02.front()) << lab::format_result(v1_01.front());
       if (a.seeds > 1) std::cerr << "\rnoise draws: " << k + 1 << " of " << a.seeds << std::flush;
     }
     if (a.seeds > 1) {
       std::cerr << "\n";
-      std::cout << fusion::format_summary(fusion::summarise_draws(v1_02))
-                << fusion::format_summary(fusion::summarise_draws(v1_01));
+      std::cout << lab::format_summary(lab::summarise_draws(v1_02))
+                << lab::format_summary(lab::summarise_draws(v1_01));
     }
   }
   if (!a.skip_sim) {
-    fusion::SimulationOptions sim;
+    lab::SimulationOptions sim;
     sim.duration_s = a.duration_s;
     // The simulated biases are drawn from the filter's prior: first the FusionOptions
     // defaults (0.01 rad/s, 0.1 m/s^2), then the wide prior of the real-data runs, where the
@@ -355,7 +354,7 @@ void run_fuse_eval(const FuseEvalArgs& a) {
     fusion::FusionOptions sim_default;
     sim_default.first_estimate_jacobians = options.first_estimate_jacobians;
     for (const fusion::FusionOptions& o : {sim_default, options}) {
-      const auto r = fusion::monte_carlo_nees(a.runs, sim, o, a.seed);
+      const auto r = lab::monte_carlo_nees(a.runs, sim, o, a.seed);
       std::cout.setf(std::ios::fixed);
       std::cout.precision(3);
       std::cout << "Monte-Carlo NEES (bias prior " << o.init_sigma_gyro_bias_rad_s << " rad/s, "

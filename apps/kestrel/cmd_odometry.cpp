@@ -188,7 +188,7 @@ sensor::BlockMatcherOptions matcher_options(const OdometryArgs& args) {
 /// T_cam0_rect with T_cam0_rect = (R_rect_left^T, 0). A body ground truth (state CSVs) gives
 /// T_world_cam0 = T_world_body * T_BS (cam0 sensor.yaml). groundtruth_cam0/ (ORB-SLAM3's, V1_01)
 /// is cam0 already, but its quaternion is R_cam_world (the evidence: docs/fusion.md, "V1_01
-/// ground truth", and fusion/experiments.cpp): it is inverted here.
+/// ground truth", and lab/fusion_experiments.cpp): it is inverted here.
 Trajectory rectified_camera_groundtruth(const io::EurocSequence& sequence,
                                         const Eigen::Matrix3d& R_rect_left) {
   Trajectory gt;

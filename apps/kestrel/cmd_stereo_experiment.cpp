@@ -2,7 +2,7 @@
 // light, low texture) and active (the projector's pattern), matched by the block matcher and
 // scored against the rendered truth; writes the views, both disparity maps (PNG + PFM).
 // With --odometry: the corridor sequence rendered passive and active, tracked in disparity
-// space and scored against the rendered trajectory (odometry/stereo_odometry_experiment.hpp).
+// space and scored against the rendered trajectory (lab/stereo_odometry_experiment.hpp).
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -14,8 +14,8 @@
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/pfm.hpp"
 #include "kestrel/io/trajectory_io.hpp"
-#include "kestrel/odometry/stereo_odometry_experiment.hpp"
-#include "kestrel/sensor/projector.hpp"
+#include "kestrel/lab/stereo_experiment.hpp"
+#include "kestrel/lab/stereo_odometry_experiment.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -25,12 +25,12 @@ constexpr const char* kStereoExperimentCommand = "stereo-experiment";
 
 struct ExperimentArgs {
   fs::path out;
-  sensor::StereoExperimentOptions options;
+  lab::StereoExperimentOptions options;
   std::string mode = "dark";
   bool force = false;
   // --odometry: the passive-vs-active stereo odometry experiment.
   bool odometry = false;
-  odometry::StereoOdometryExperimentOptions odo;
+  lab::StereoOdometryExperimentOptions odo;
   std::string odo_mode = "ambient";
   bool write_sequences = false;
 };
@@ -47,7 +47,7 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   if (cmd.count("--max-length") > 0) o.pattern.max_length_px = args.options.pattern.max_length_px;
   if (cmd.count("--noise") > 0) o.intensity_sigma = args.options.intensity_sigma;
   if (cmd.count("--mode") > 0) args.odo_mode = args.mode;
-  o.active_mode = sensor::parse_projector_mode(args.odo_mode);
+  o.active_mode = sim::parse_projector_mode(args.odo_mode);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {
@@ -59,7 +59,7 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
     o.force = true;  // inside the folder this command has just claimed
   }
   std::cerr << "kestrel stereo-experiment --odometry: " << o.describe() << "\n";
-  const odometry::StereoOdometryExperimentResult r = odometry::run_stereo_odometry_experiment(o);
+  const lab::StereoOdometryExperimentResult r = lab::run_stereo_odometry_experiment(o);
   io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kStereoExperimentCommand,
                            true);
   for (const auto& run : r.runs) {
@@ -70,7 +70,7 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   for (const auto& run : r.runs) std::cout << "," << run.name;
   std::cout << "}.txt" << (args.write_sequences ? " and the sequences passive/, active/" : "")
             << "\n"
-            << odometry::format_stereo_odometry_result(r);
+            << lab::format_stereo_odometry_result(r);
   for (const auto& run : r.runs) {
     std::cout << run.name << "_failures=" << run.failures << " " << run.name
               << "_final_error_m=" << run.final_error_m << " " << run.name << "_ate_m="
@@ -83,15 +83,15 @@ void write_image(const fs::path& path, const cv::Mat& image) {
   if (!cv::imwrite(path.string(), image)) throw InputError(path.string() + ": cannot write");
 }
 
-void save_run(const fs::path& dir, const sensor::StereoExperimentRun& run, double max_disparity) {
+void save_run(const fs::path& dir, const lab::StereoExperimentRun& run, double max_disparity) {
   write_image(dir / (run.name + "_left.png"), run.frame.left.color_bgr);
   write_image(dir / (run.name + "_right.png"), run.frame.right.color_bgr);
   write_image(dir / (run.name + "_disparity.png"),
-              sensor::colorize_disparity(run.disparity_px, max_disparity));
+              lab::colorize_disparity(run.disparity_px, max_disparity));
   io::write_pfm(dir / (run.name + "_disparity.pfm"), run.disparity_px, true);
 }
 
-void print_run(const sensor::StereoExperimentRun& run) {
+void print_run(const lab::StereoExperimentRun& run) {
   const auto& s = run.score;
   std::cout << run.name << ": fill " << 100.0 * s.fill_rate() << " % of " << s.scored
             << " covisible pixels, RMS error " << s.rms_error_px << " px, bad (> "
@@ -109,8 +109,8 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
     run_odometry_experiment(args, cmd);
     return;
   }
-  args.options.active_mode = sensor::parse_projector_mode(args.mode);
-  if (args.options.active_mode == sensor::ProjectorMode::kOff) {
+  args.options.active_mode = sim::parse_projector_mode(args.mode);
+  if (args.options.active_mode == sim::ProjectorMode::kOff) {
     throw InputError("--mode: the active run needs the projector: dark or ambient");
   }
   try {
@@ -120,7 +120,7 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   }
   io::claim_output_dir(args.out, kStereoExperimentCommand, args.force);
   std::cerr << "kestrel stereo-experiment: " << args.options.describe() << "\n";
-  const sensor::StereoExperimentResult r = sensor::run_stereo_experiment(args.options);
+  const lab::StereoExperimentResult r = lab::run_stereo_experiment(args.options);
 
   const double max_d = args.options.matcher.max_disparity;
   write_image(args.out / "pattern.png", r.pattern);
@@ -128,7 +128,7 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   write_image(args.out / "projector_lit.png", r.lit);
   io::write_pfm(args.out / "truth_disparity.pfm", r.passive.frame.disparity_px, true);
   write_image(args.out / "truth_disparity.png",
-              sensor::colorize_disparity(r.passive.frame.disparity_px, max_d));
+              lab::colorize_disparity(r.passive.frame.disparity_px, max_d));
   save_run(args.out, r.passive, max_d);
   save_run(args.out, r.active, max_d);
   std::cout << "wrote " << args.out.string() << "/{pattern,covisible,projector_lit,truth_disparity,"

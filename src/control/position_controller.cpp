@@ -5,9 +5,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::control {
@@ -68,12 +68,12 @@ void PositionControllerOptions::validate() const {
   pos("max_yaw_rate_deg_s", max_yaw_rate_deg_s);
 }
 
-std::string PositionControllerOptions::to_yaml() const { return yaml_options::to_yaml(*this); }
+std::string PositionControllerOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 PositionControllerOptions PositionControllerOptions::from_yaml(const YAML::Node& node,
                                                                const std::string& source) {
   PositionControllerOptions o;
-  yaml_options::read_fields(node, source, "controller", o);
+  io::option_fields::read_fields(node, source, "controller", o);
   o.validate();
   return o;
 }

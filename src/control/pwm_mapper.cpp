@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::control {
@@ -45,11 +45,11 @@ void PwmMapperOptions::validate() const {
   }
 }
 
-std::string PwmMapperOptions::to_yaml() const { return yaml_options::to_yaml(*this); }
+std::string PwmMapperOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 PwmMapperOptions PwmMapperOptions::from_yaml(const YAML::Node& node, const std::string& source) {
   PwmMapperOptions o;
-  yaml_options::read_fields(node, source, "pwm", o);
+  io::option_fields::read_fields(node, source, "pwm", o);
   o.validate();
   return o;
 }

@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::control {
@@ -59,11 +59,11 @@ void SafetyOptions::validate() const {
   pos("blind_descent_max_s", blind_descent_max_s);
 }
 
-std::string SafetyOptions::to_yaml() const { return yaml_options::to_yaml(*this); }
+std::string SafetyOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 SafetyOptions SafetyOptions::from_yaml(const YAML::Node& node, const std::string& source) {
   SafetyOptions o;
-  yaml_options::read_fields(node, source, "safety", o);
+  io::option_fields::read_fields(node, source, "safety", o);
   o.validate();
   return o;
 }

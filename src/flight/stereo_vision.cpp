@@ -20,8 +20,8 @@ sim::RenderOptions render_options(const StereoVisionOptions& o) {
 
 }  // namespace
 
-sensor::ProjectorOptions rig_projector_options() {
-  sensor::ProjectorOptions p;
+sim::ProjectorOptions rig_projector_options() {
+  sim::ProjectorOptions p;
   // Shadow rays test every face of the scene; from 8 cm beside the camera the projector's
   // shadows are thin slivers. Measured (hover, office / corridor, 376x240, 5 s): render
   // 58.8 -> 43.5 ms and 82.2 -> 45.7 ms per frame without them, depth fill unchanged
@@ -56,7 +56,7 @@ void StereoVisionOptions::validate() const {
 std::string StereoVisionOptions::describe() const {
   std::ostringstream os;
   os << width << "x" << height << " f=" << f_px << " px, baseline " << baseline_m
-     << " m, projector " << sensor::projector_mode_name(projector_mode) << ", noise "
+     << " m, projector " << sim::projector_mode_name(projector_mode) << ", noise "
      << intensity_sigma << " grey levels, block " << matcher.block_size << ", disparities "
      << matcher.min_disparity << ".." << matcher.max_disparity << ", covariance x"
      << covariance_scale << ", measurements from the "
@@ -68,15 +68,15 @@ StereoVision::StereoVision(const sim::Scene& scene, const StereoVisionOptions& o
                            std::uint64_t seed)
     : options_((options.validate(), options)),
       rig_(options.rig()),
-      projector_(std::make_shared<sensor::ProjectorLight>(
+      projector_(std::make_shared<sim::ProjectorLight>(
           SE3(), sensor::generate_pattern(options.pattern, seed), options.projector)),
-      lit_scene_(sensor::scene_with_projector(scene, projector_, options.projector_mode)),
+      lit_scene_(sim::scene_with_projector(scene, projector_, options.projector_mode)),
       renderer_(rig_, render_options(options), seed),
       matcher_(options.matcher, rig_),
       tracker_(rig_.left(), options.tracker),
       measurements_(options.measurement_reference, options.covariance_scale) {
   if (options_.track_without_pattern &&
-      options_.projector_mode == sensor::ProjectorMode::kAmbientAndPattern) {
+      options_.projector_mode == sim::ProjectorMode::kAmbientAndPattern) {
     scene_ = scene;
     tracking_renderer_.emplace(rig_.left(), render_options(options_), seed + 7919);
   }

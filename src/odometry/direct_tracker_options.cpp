@@ -2,70 +2,12 @@
 #include "kestrel/odometry/direct_tracker_options.hpp"
 
 #include <cmath>
-#include <set>
-#include <sstream>
 
 #include "kestrel/core/error.hpp"
-#include "kestrel/io/trajectory_io.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::odometry {
-
-namespace {
-
-// One table drives print, load and the unknown-key check, so they cannot disagree.
-template <typename Visitor>
-void visit_fields(DirectTrackerOptions& o, Visitor&& v) {
-  v("pyramid_levels", o.pyramid_levels);
-  v("finest_level", o.finest_level);
-  v("pyramid_filter", o.pyramid_filter);
-  v("depth_pyramid_max_relative_spread", o.depth_pyramid_max_relative_spread);
-  v("min_depth_m", o.min_depth_m);
-  v("max_depth_m", o.max_depth_m);
-  v("min_gradient", o.min_gradient);
-  v("max_points_per_level", o.max_points_per_level);
-  v("tukey_c", o.tukey_c);
-  v("sigma_freeze_change", o.sigma_freeze_change);
-  v("min_sigma", o.min_sigma);
-  v("estimate_gain_bias", o.estimate_gain_bias);
-  v("use_depth_residual", o.use_depth_residual);
-  v("depth_residual_weight", o.depth_residual_weight);
-  v("min_depth_sigma_m", o.min_depth_sigma_m);
-  v("depth_noise_per_m", o.depth_noise_per_m);
-  v("depth_residual_max_relative_spread", o.depth_residual_max_relative_spread);
-  v("compensate_depth_time_offset", o.compensate_depth_time_offset);
-  v("rolling_shutter_readout_s", o.rolling_shutter_readout_s);
-  v("update_norm_tolerance", o.update_norm_tolerance);
-  v("update_change_tolerance", o.update_change_tolerance);
-  v("max_iterations_finest", o.max_iterations_finest);
-  v("max_iterations_coarse", o.max_iterations_coarse);
-  v("stop_on_cost_increase", o.stop_on_cost_increase);
-  v("bicubic_finest_level", o.bicubic_finest_level);
-  v("bicubic_coarse_levels", o.bicubic_coarse_levels);
-  v("constant_velocity_prior", o.constant_velocity_prior);
-  v("use_keyframes", o.use_keyframes);
-  v("keyframe_min_overlap", o.keyframe_min_overlap);
-  v("keyframe_max_rotation_deg", o.keyframe_max_rotation_deg);
-  v("keyframe_max_translation_rel", o.keyframe_max_translation_rel);
-  v("retry_previous_frame", o.retry_previous_frame);
-  v("geometric_fallback", o.geometric_fallback);
-  v("fallback_rotation_from_previous_frame", o.fallback_rotation_from_previous_frame);
-  v("fallback_rotation_coarsest_level", o.fallback_rotation_coarsest_level);
-  v("max_level_jump_px", o.max_level_jump_px);
-  v("min_overlap", o.min_overlap);
-  v("min_inlier_ratio", o.min_inlier_ratio);
-  v("max_sigma", o.max_sigma);
-  v("min_points", o.min_points);
-  v("max_translation_m", o.max_translation_m);
-  v("max_rotation_deg", o.max_rotation_deg);
-}
-
-std::string value_text(double v) { return io::format_double(v); }
-std::string value_text(int v) { return std::to_string(v); }
-std::string value_text(bool v) { return v ? "true" : "false"; }
-std::string value_text(image::PyramidFilter v) { return std::string(image::to_string(v)); }
-
-}  // namespace
 
 void DirectTrackerOptions::validate() const {
   auto fail = [](const std::string& field, const std::string& why) {
@@ -125,41 +67,12 @@ void DirectTrackerOptions::validate() const {
   finite_pos("max_rotation_deg", max_rotation_deg);
 }
 
-std::string DirectTrackerOptions::to_yaml() const {
-  std::ostringstream out;
-  auto copy = *this;
-  visit_fields(copy, [&](const char* name, const auto& value) {
-    out << name << ": " << value_text(value) << "\n";
-  });
-  return out.str();
-}
+std::string DirectTrackerOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 DirectTrackerOptions DirectTrackerOptions::from_yaml(const YAML::Node& node,
                                                      const std::string& source) {
   DirectTrackerOptions o;
-  if (!node || node.IsNull()) return o;
-  if (!node.IsMap()) throw InputError(source + ": tracker options must be a YAML map");
-  std::set<std::string> known;
-  visit_fields(o, [&](const char* name, auto& value) {
-    known.insert(name);
-    const YAML::Node v = node[name];
-    if (!v) return;
-    using T = std::decay_t<decltype(value)>;
-    try {
-      if constexpr (std::is_same_v<T, image::PyramidFilter>) {
-        value = image::pyramid_filter_from_string(v.as<std::string>());
-      } else {
-        value = v.as<T>();
-      }
-    } catch (const std::exception& e) {
-      throw InputError(source, name, std::string("has the wrong type or value (") + e.what() +
-                                         ")");
-    }
-  });
-  for (const auto& kv : node) {
-    const auto key = kv.first.as<std::string>();
-    if (known.count(key) == 0) throw InputError(source, key, "is not a tracker option");
-  }
+  io::option_fields::read_fields(node, source, "tracker", o);
   o.validate();
   return o;
 }

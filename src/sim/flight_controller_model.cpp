@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::sim {
@@ -43,13 +43,13 @@ void FlightControllerModelOptions::validate() const {
 }
 
 std::string FlightControllerModelOptions::to_yaml() const {
-  return control::yaml_options::to_yaml(*this);
+  return io::option_fields::to_yaml(*this);
 }
 
 FlightControllerModelOptions FlightControllerModelOptions::from_yaml(const YAML::Node& node,
                                                                      const std::string& source) {
   FlightControllerModelOptions o;
-  control::yaml_options::read_fields(node, source, "flight controller", o);
+  io::option_fields::read_fields(node, source, "flight controller", o);
   o.validate();
   return o;
 }

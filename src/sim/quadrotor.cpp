@@ -7,8 +7,8 @@
 #include <cmath>
 #include <numbers>
 
-#include "kestrel/control/yaml_options.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::sim {
@@ -91,11 +91,11 @@ void QuadrotorParameters::validate() const {
   if (max_thrust_N() <= hover_thrust_N()) fail("max_rotor_speed_rad_s", "the vehicle cannot lift its weight");
 }
 
-std::string QuadrotorParameters::to_yaml() const { return control::yaml_options::to_yaml(*this); }
+std::string QuadrotorParameters::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 QuadrotorParameters QuadrotorParameters::from_yaml(const YAML::Node& node, const std::string& source) {
   QuadrotorParameters p;
-  control::yaml_options::read_fields(node, source, "vehicle", p);
+  io::option_fields::read_fields(node, source, "vehicle", p);
   p.validate();
   return p;
 }

@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-#include "kestrel/fusion/simulation.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
 #include "run_cli.hpp"
 #include "test_data.hpp"
 
@@ -64,7 +64,7 @@ class CmdFuse : public ::testing::Test {
     options_.init_sigma_gyro_bias_rad_s = 0.002;  // small simulated biases
     options_.init_sigma_accel_bias_m_s2 = 0.02;
     std::mt19937_64 rng(7);
-    run_ = simulate_run(flight_, sim_, options_, rng);
+    run_ = lab::simulate_run(flight_, sim_, options_, rng);
     {
       std::ofstream imu(dir_ / "imu.csv");
       imu << "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
@@ -105,10 +105,10 @@ class CmdFuse : public ::testing::Test {
   }
 
   fs::path dir_;
-  SimulatedFlight flight_{5};
-  SimulationOptions sim_;
+  lab::SimulatedFlight flight_{5};
+  lab::SimulationOptions sim_;
   FusionOptions options_;
-  SimulatedRun run_;
+  lab::SimulatedRun run_;
   std::vector<std::pair<TimeNs, SE3>> truth_;
   double chained_final_rot_deg_ = 0.0;
 };

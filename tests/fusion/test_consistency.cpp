@@ -6,17 +6,17 @@
 #include <algorithm>
 #include <numbers>
 
-#include "kestrel/fusion/simulation.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
 
 namespace kestrel::fusion {
 namespace {
 
 TEST(FusionSimulation, FlightDerivativesMatchFiniteDifferences) {
   for (std::uint64_t seed = 1; seed < 6; ++seed) {
-    const SimulatedFlight flight(seed);
+    const lab::SimulatedFlight flight(seed);
     for (double t = 0.0; t < 20.0; t += 3.7) {
       const double h = 1e-5;
-      const FlightPoint p = flight.at(t), a = flight.at(t - h), b = flight.at(t + h);
+      const lab::FlightPoint p = flight.at(t), a = flight.at(t - h), b = flight.at(t + h);
       EXPECT_LT((p.v_world - (b.T_world_body.translation() - a.T_world_body.translation()) / (2 * h)).norm(), 1e-6);
       EXPECT_LT((p.a_world - (b.v_world - a.v_world) / (2 * h)).norm(), 1e-6);
       // omega_body = log(R(t-h)^T R(t+h)) / 2h
@@ -28,10 +28,10 @@ TEST(FusionSimulation, FlightDerivativesMatchFiniteDifferences) {
 
 TEST(FusionConsistency, MonteCarloNeesInsideTheBounds) {
   // Small for the test suite (the figures in docs/fusion.md use 50 runs x 30 s at 200 Hz).
-  SimulationOptions sim;
+  lab::SimulationOptions sim;
   sim.duration_s = 8.0;
   sim.imu_rate_hz = 100.0;
-  const NeesResult r = monte_carlo_nees(20, sim, FusionOptions{}, 42);
+  const lab::NeesResult r = lab::monte_carlo_nees(20, sim, FusionOptions{}, 42);
   ASSERT_EQ(r.t_s.size(), 160u);
   // The time average of the run-averaged NEES (160 x 20 x 3 dof) is far tighter than the
   // per-step bounds; require it inside the per-step 95 % bounds.
@@ -65,7 +65,7 @@ double yaw_information(const StochasticCloningEkf& ekf) {
 // only fall (process noise) from one update to the next with first-estimates Jacobians; with
 // Jacobians at the latest estimates each update adds yaw information no sensor gave.
 TEST(FusionConsistency, FirstEstimatesGainNoYawInformation) {
-  const SimulatedFlight flight(3);
+  const lab::SimulatedFlight flight(3);
   const Eigen::Vector3d g(0.0, 0.0, -9.81);
   const FusionOptions fusion;
   const double dt = 0.005;
@@ -75,7 +75,7 @@ TEST(FusionConsistency, FirstEstimatesGainNoYawInformation) {
     std::normal_distribution<double> normal(0.0, 1.0);
     StochasticCloningEkf ekf(fusion.noise, g);
     ekf.set_first_estimate_jacobians(fej);
-    const FlightPoint p0 = flight.at(0.0);
+    const lab::FlightPoint p0 = flight.at(0.0);
     NominalState x0;
     x0.p_world = p0.T_world_body.translation() + Eigen::Vector3d(0.05, -0.03, 0.02);
     x0.q_world_body =
@@ -91,8 +91,8 @@ TEST(FusionConsistency, FirstEstimatesGainNoYawInformation) {
     for (int k = 1; k <= 200; ++k) {  // 10 s
       for (int j = 0; j < 10; ++j) {
         const double t = ((k - 1) * 10 + j) * dt;
-        const auto a = ideal_imu_sample(flight.at(t), 0, g),
-                   b = ideal_imu_sample(flight.at(t + dt), 0, g);
+        const auto a = lab::ideal_imu_sample(flight.at(t), 0, g),
+                   b = lab::ideal_imu_sample(flight.at(t + dt), 0, g);
         ekf.propagate({0.5 * (a.gyro_rad_s + b.gyro_rad_s), 0.5 * (a.accel_m_s2 + b.accel_m_s2)},
                       dt);
       }

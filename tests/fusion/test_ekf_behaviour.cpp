@@ -11,7 +11,7 @@
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
-#include "kestrel/fusion/simulation.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::fusion {
@@ -70,7 +70,7 @@ TEST(FusionBehaviour, JosephUpdateKeepsCovarianceSymmetricPositiveDefiniteForAnH
   // One hour of simulated flight at a coarse rate (50 Hz IMU, 5 Hz odometry): cheap, but
   // 180 000 propagations and 18 000 updates with re-cloning.
   FusionOptions fusion;
-  SimulationOptions sim;
+  lab::SimulationOptions sim;
   sim.duration_s = 3600.0;
   sim.imu_rate_hz = 50.0;
   sim.vo_rate_hz = 5.0;
@@ -78,10 +78,10 @@ TEST(FusionBehaviour, JosephUpdateKeepsCovarianceSymmetricPositiveDefiniteForAnH
   fusion.reorder_window_s = 0.0;
   fusion.max_imu_gap_s = 0.05;
   std::mt19937_64 rng(3);
-  const SimulatedFlight flight(5);
-  const SimulatedRun run = simulate_run(flight, sim, fusion, rng);
+  const lab::SimulatedFlight flight(5);
+  const lab::SimulatedRun run = lab::simulate_run(flight, sim, fusion, rng);
   FusionEngine engine(fusion);
-  engine.initialize(true_state(flight, run, 0, sim.imu_rate_hz));
+  engine.initialize(lab::true_state(flight, run, 0, sim.imu_rate_hz));
   std::size_t i = 0, checks = 0;
   double worst_asym = 0.0, min_eig = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < run.odometry.size(); ++k) {

@@ -13,8 +13,8 @@
 #include "kestrel/gpu/photometric_step.hpp"
 #include "kestrel/gpu/stereo_matcher.hpp"
 #include "kestrel/io/euroc.hpp"
+#include "kestrel/lab/stereo_evaluation.hpp"
 #include "kestrel/sensor/rectification.hpp"
-#include "kestrel/sensor/stereo_evaluation.hpp"
 #include "photometric_scene.hpp"
 #include "stereo_scenes.hpp"
 #include "test_data.hpp"
@@ -59,8 +59,8 @@ TEST(CudaStereo, RealPairsMatchBlockMatcherBitForBit) {
   KESTREL_REQUIRE_DATA("middlebury/teddy");
   StereoMatcher gpu_matcher({}, std::nullopt, Backend::kCuda);
   for (const char* name : {"tsukuba", "venus", "teddy"}) {
-    const sensor::MiddleburyPair p =
-        sensor::load_middlebury_pair(kestrel::test::shared_data_dir() / "middlebury" / name);
+    const lab::MiddleburyPair p =
+        lab::load_middlebury_pair(kestrel::test::shared_data_dir() / "middlebury" / name);
     cv::Mat cpu, gpu;  // BGR input: both convert to grey the same way
     const sensor::MatchStats a = sensor::BlockMatcher().match(p.left, p.right, cpu);
     const sensor::MatchStats b = gpu_matcher.match(p.left, p.right, gpu);

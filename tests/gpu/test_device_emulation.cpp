@@ -18,9 +18,9 @@
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/interpolation.hpp"
 #include "kestrel/image/pyramid.hpp"
+#include "kestrel/lab/stereo_evaluation.hpp"
 #include "kestrel/odometry/alignment_kernels.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
-#include "kestrel/sensor/stereo_evaluation.hpp"
 #include "photometric_scene.hpp"
 #include "stereo_scenes.hpp"
 #include "test_data.hpp"
@@ -72,8 +72,8 @@ TEST(StereoEmulation, EveryOptionMatchesBlockMatcherBitForBit) {
 TEST(StereoEmulation, MiddleburyPairsMatchBlockMatcherBitForBit) {
   KESTREL_REQUIRE_DATA("middlebury/teddy");
   for (const char* name : {"tsukuba", "teddy"}) {
-    const sensor::MiddleburyPair pair =
-        sensor::load_middlebury_pair(kestrel::test::shared_data_dir() / "middlebury" / name);
+    const lab::MiddleburyPair pair =
+        lab::load_middlebury_pair(kestrel::test::shared_data_dir() / "middlebury" / name);
     cv::Mat l, r;
     cv::cvtColor(pair.left, l, cv::COLOR_BGR2GRAY);
     cv::cvtColor(pair.right, r, cv::COLOR_BGR2GRAY);

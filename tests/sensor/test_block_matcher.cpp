@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/lab/stereo_evaluation.hpp"
+#include "kestrel/lab/stereo_experiment.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
-#include "kestrel/sensor/projector.hpp"
-#include "kestrel/sensor/stereo_evaluation.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::sensor {
@@ -69,7 +69,7 @@ TEST(BlockMatcher, FrontoParallelIntegerShiftIsExact) {
       const cv::Mat disp = BlockMatcher(o).match(l, r);
       // Interior pixels whose window lies inside both images.
       const cv::Mat mask = interior(l.cols, l.rows, 40);
-      const DisparityScore s = score_disparity(disp, truth, 0.05, mask);
+      const lab::DisparityScore s = lab::score_disparity(disp, truth, 0.05, mask);
       EXPECT_GT(s.fill_rate(), 0.99) << "d " << d << " " << s.describe();
       EXPECT_LT(s.rms_error_px, 0.02) << "d " << d;
       EXPECT_EQ(s.bad, 0U) << "d " << d << " " << s.describe();
@@ -85,7 +85,8 @@ TEST(BlockMatcher, FrontoParallelSubpixelShiftIsAccurate) {
     BlockMatcherOptions o;
     o.max_disparity = 32;
     const cv::Mat disp = BlockMatcher(o).match(l, r);
-    const DisparityScore s = score_disparity(disp, truth, 0.25, interior(l.cols, l.rows, 40));
+    const lab::DisparityScore s =
+        lab::score_disparity(disp, truth, 0.25, interior(l.cols, l.rows, 40));
     EXPECT_GT(s.fill_rate(), 0.98) << s.describe();
     EXPECT_LT(s.rms_error_px, 0.15) << "d " << d << " " << s.describe();
     EXPECT_LT(s.bad_rate(), 0.05) << "d " << d << " " << s.describe();
@@ -99,7 +100,8 @@ TEST(BlockMatcher, SlantedPlane) {
   BlockMatcherOptions o;
   o.max_disparity = 48;
   const cv::Mat disp = BlockMatcher(o).match(l, r);
-  const DisparityScore s = score_disparity(disp, truth, 0.5, interior(l.cols, l.rows, 30));
+  const lab::DisparityScore s =
+      lab::score_disparity(disp, truth, 0.5, interior(l.cols, l.rows, 30));
   EXPECT_GT(s.fill_rate(), 0.97) << s.describe();
   EXPECT_LT(s.rms_error_px, 0.3) << s.describe();
   EXPECT_LT(s.bad_rate(), 0.05) << s.describe();
@@ -204,14 +206,15 @@ TEST(BlockMatcher, MiddleburyBeatsStereoBmFigures) {
   // (no rejection: a missing disparity counts as bad) must be lower. Teddy runs in the bench.
   const std::pair<const char*, double> cases[] = {{"tsukuba", 0.160}, {"venus", 0.226}};
   for (const auto& [name, bm] : cases) {
-    const MiddleburyPair p = load_middlebury_pair(test::shared_data_dir() / "middlebury" / name);
+    const lab::MiddleburyPair p =
+        lab::load_middlebury_pair(test::shared_data_dir() / "middlebury" / name);
     BlockMatcherOptions o;
     o.max_disparity = (p.max_disparity + 16) / 16 * 16;
     o.lr_max_diff = -1;
     o.uniqueness_ratio = 0;
     o.texture_threshold = 0.0;
     const cv::Mat disp = BlockMatcher(o).match(p.left, p.right);
-    const DisparityScore s = score_disparity(disp, p.truth_px);
+    const lab::DisparityScore s = lab::score_disparity(disp, p.truth_px);
     EXPECT_LT(s.bad_rate(), bm) << name << ": " << s.describe();
   }
 }
@@ -265,12 +268,12 @@ TEST(BlockMatcher, SimdAndPortableScansGiveIdenticalMaps) {
     pairs.push_back({"slanted plane", l, r});
   }
   {  // rendered active and passive views of the fig. 2.7 scene, small
-    StereoExperimentOptions o;
+    lab::StereoExperimentOptions o;
     o.width = 200;
     o.height = 150;
     o.f_px = 130.0;
     o.matcher.max_disparity = 32;
-    const StereoExperimentResult e = run_stereo_experiment(o);
+    const lab::StereoExperimentResult e = lab::run_stereo_experiment(o);
     pairs.push_back({"rendered active", e.active.frame.left.gray, e.active.frame.right.gray});
     pairs.push_back({"rendered passive", e.passive.frame.left.gray, e.passive.frame.right.gray});
   }

@@ -14,7 +14,7 @@
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/pattern.hpp"
-#include "kestrel/sensor/projector.hpp"
+#include "kestrel/sim/projector_light.hpp"
 #include "kestrel/sim/renderer.hpp"
 #include "kestrel/sim/scene.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
@@ -22,7 +22,7 @@
 namespace kestrel::flight {
 
 /// The projector of the flying rig: ProjectorOptions' defaults without shadow rays.
-sensor::ProjectorOptions rig_projector_options();
+sim::ProjectorOptions rig_projector_options();
 
 /// The sensor head and its processing. Defaults: the MT9V024 pair of the thesis binned to
 /// 376 x 240 (74 deg horizontal field of view), 12 cm baseline, looking forward 10 cm ahead of
@@ -35,7 +35,7 @@ struct StereoVisionOptions {
   /// Left camera's optical frame (x right, y down, z forward) in the body frame (x forward,
   /// y left, z up).
   SE3 T_body_cam = SE3(SO3(), Eigen::Vector3d(0.10, 0.0, 0.0)) * sim::forward_camera_mount();
-  sensor::ProjectorMode projector_mode = sensor::ProjectorMode::kAmbientAndPattern;
+  sim::ProjectorMode projector_mode = sim::ProjectorMode::kAmbientAndPattern;
   /// What the odometry tracks. true: the left view without the pattern, as with an infrared
   /// (or strobed) projector that the stereo pair sees and the tracking image does not (thesis
   /// 5.2's future work; a Kinect-like head). false: the pattern-lit left view itself, as with
@@ -43,7 +43,7 @@ struct StereoVisionOptions {
   /// constancy and pulling the alignment towards zero motion (docs/flight.md measures it).
   /// Ignored for kOff; kDarkRoom always tracks the lit view (there is no other light).
   bool track_without_pattern = true;
-  sensor::ProjectorOptions projector = rig_projector_options();
+  sim::ProjectorOptions projector = rig_projector_options();
   sensor::PatternOptions pattern;
   /// Camera noise (grey levels) of both views.
   double intensity_sigma = 2.0;
@@ -95,7 +95,7 @@ class StereoVision {
  private:
   StereoVisionOptions options_;
   RectifiedStereo rig_;
-  std::shared_ptr<sensor::ProjectorLight> projector_;
+  std::shared_ptr<sim::ProjectorLight> projector_;
   sim::Scene lit_scene_;
   sim::StereoRenderer renderer_;
   std::optional<sim::Renderer> tracking_renderer_;  // the left view without the pattern

@@ -20,6 +20,10 @@ enum class PyramidFilter {
 std::string_view to_string(PyramidFilter filter);
 /// "box" or "gaussian"; throws std::invalid_argument otherwise.
 PyramidFilter pyramid_filter_from_string(std::string_view name);
+/// The options-table hook (io/option_fields.hpp): reads a filter by its name.
+inline void parse_option(std::string_view name, PyramidFilter& filter) {
+  filter = pyramid_filter_from_string(name);
+}
 
 /// Size of the next level: floor(w/2) x floor(h/2) (an odd last row/column is dropped so that
 /// every output pixel has a full 2x2 block).

@@ -153,6 +153,52 @@ struct DirectTrackerOptions {
   static DirectTrackerOptions from_yaml(const YAML::Node& node, const std::string& source);
   /// Loads a file: the options may be at the top level or under a `tracker:` key.
   static DirectTrackerOptions load(const std::filesystem::path& path);
+  /// The field table (name, member) that print and load derive from (io/option_fields.hpp).
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("pyramid_levels", pyramid_levels);
+    v("finest_level", finest_level);
+    v("pyramid_filter", pyramid_filter);
+    v("depth_pyramid_max_relative_spread", depth_pyramid_max_relative_spread);
+    v("min_depth_m", min_depth_m);
+    v("max_depth_m", max_depth_m);
+    v("min_gradient", min_gradient);
+    v("max_points_per_level", max_points_per_level);
+    v("tukey_c", tukey_c);
+    v("sigma_freeze_change", sigma_freeze_change);
+    v("min_sigma", min_sigma);
+    v("estimate_gain_bias", estimate_gain_bias);
+    v("use_depth_residual", use_depth_residual);
+    v("depth_residual_weight", depth_residual_weight);
+    v("min_depth_sigma_m", min_depth_sigma_m);
+    v("depth_noise_per_m", depth_noise_per_m);
+    v("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
+    v("compensate_depth_time_offset", compensate_depth_time_offset);
+    v("rolling_shutter_readout_s", rolling_shutter_readout_s);
+    v("update_norm_tolerance", update_norm_tolerance);
+    v("update_change_tolerance", update_change_tolerance);
+    v("max_iterations_finest", max_iterations_finest);
+    v("max_iterations_coarse", max_iterations_coarse);
+    v("stop_on_cost_increase", stop_on_cost_increase);
+    v("bicubic_finest_level", bicubic_finest_level);
+    v("bicubic_coarse_levels", bicubic_coarse_levels);
+    v("constant_velocity_prior", constant_velocity_prior);
+    v("use_keyframes", use_keyframes);
+    v("keyframe_min_overlap", keyframe_min_overlap);
+    v("keyframe_max_rotation_deg", keyframe_max_rotation_deg);
+    v("keyframe_max_translation_rel", keyframe_max_translation_rel);
+    v("retry_previous_frame", retry_previous_frame);
+    v("geometric_fallback", geometric_fallback);
+    v("fallback_rotation_from_previous_frame", fallback_rotation_from_previous_frame);
+    v("fallback_rotation_coarsest_level", fallback_rotation_coarsest_level);
+    v("max_level_jump_px", max_level_jump_px);
+    v("min_overlap", min_overlap);
+    v("min_inlier_ratio", min_inlier_ratio);
+    v("max_sigma", max_sigma);
+    v("min_points", min_points);
+    v("max_translation_m", max_translation_m);
+    v("max_rotation_deg", max_rotation_deg);
+  }
 };
 
 }  // namespace kestrel::odometry

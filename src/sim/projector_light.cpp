@@ -1,6 +1,6 @@
 // The projector light (pinhole light casting the pattern, with shadows and fall-off) and the
-// rendering of active stereo pairs; see include/kestrel/sensor/projector.hpp, docs/stereo.md.
-#include "kestrel/sensor/projector.hpp"
+// rendering of active stereo pairs; see docs/stereo.md.
+#include "kestrel/sim/projector_light.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include "kestrel/sim/scenes.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
 
-namespace kestrel::sensor {
+namespace kestrel::sim {
 
 void ProjectorOptions::validate() const {
   auto fail = [](const std::string& what) {
@@ -37,11 +37,10 @@ void ProjectorOptions::validate() const {
 std::string ProjectorOptions::describe() const {
   std::ostringstream os;
   const Eigen::Vector3d& t = T_left_projector.translation();
-  os << "projector " << width << "x" << height << ", hfov " << horizontal_fov_deg
-     << " deg, at (" << t.x() << ", " << t.y() << ", " << t.z() << ") m from the left camera, power "
-     << power << " at " << reference_distance_m << " m, 1/d^2"
-     << (lambertian ? ", Lambertian" : "") << ", blur " << blur_sigma_px << " px"
-     << (shadows ? ", shadows" : ", no shadows");
+  os << "projector " << width << "x" << height << ", hfov " << horizontal_fov_deg << " deg, at ("
+     << t.x() << ", " << t.y() << ", " << t.z() << ") m from the left camera, power " << power
+     << " at " << reference_distance_m << " m, 1/d^2" << (lambertian ? ", Lambertian" : "")
+     << ", blur " << blur_sigma_px << " px" << (shadows ? ", shadows" : ", no shadows");
   return os.str();
 }
 
@@ -92,9 +91,9 @@ void ProjectorLight::set_pose(const SE3& T_world_projector) {
   T_projector_world_ = T_world_projector.inverse();
 }
 
-sim::ColorBgr ProjectorLight::illuminate(const sim::SurfacePoint& point,
-                                         const sim::ShadingContext& context) const {
-  const sim::ColorBgr dark(0.0F, 0.0F, 0.0F);
+ColorBgr ProjectorLight::illuminate(const SurfacePoint& point,
+                                    const ShadingContext& context) const {
+  const ColorBgr dark(0.0F, 0.0F, 0.0F);
   const Eigen::Vector3d p = T_projector_world_ * point.p_world;
   if (!(p.z() > 1e-6)) return dark;  // behind the projector
   const double u = camera_.fx() * p.x() / p.z() + camera_.cx();
@@ -106,8 +105,8 @@ sim::ColorBgr ProjectorLight::illuminate(const sim::SurfacePoint& point,
   const Eigen::Vector3d& c_world = T_world_projector_.translation();
   const Eigen::Vector3d to_projector = c_world - point.p_world;
   const double d = to_projector.norm();
-  double gain = options_.power * (options_.reference_distance_m / d) *
-                (options_.reference_distance_m / d);
+  double gain =
+      options_.power * (options_.reference_distance_m / d) * (options_.reference_distance_m / d);
   if (options_.lambertian) {
     const double cos_theta = point.n_world.dot(to_projector) / d;
     if (!(cos_theta > 0.0)) return dark;
@@ -135,8 +134,8 @@ sim::ColorBgr ProjectorLight::illuminate(const sim::SurfacePoint& point,
 std::string ProjectorLight::describe() const {
   const Eigen::Vector3d& t = T_world_projector_.translation();
   std::ostringstream os;
-  os << "projector light at (" << t.x() << ", " << t.y() << ", " << t.z() << "): "
-     << options_.describe();
+  os << "projector light at (" << t.x() << ", " << t.y() << ", " << t.z()
+     << "): " << options_.describe();
   return os.str();
 }
 
@@ -159,15 +158,14 @@ const char* projector_mode_name(ProjectorMode mode) {
   return "?";
 }
 
-sim::Scene scene_with_projector(const sim::Scene& scene,
-                                const std::shared_ptr<const ProjectorLight>& light,
-                                ProjectorMode mode) {
+Scene scene_with_projector(const Scene& scene, const std::shared_ptr<const ProjectorLight>& light,
+                           ProjectorMode mode) {
   if (mode == ProjectorMode::kOff) return scene;
-  sim::Scene lit = scene;
+  Scene lit = scene;
   if (mode == ProjectorMode::kDarkRoom) {
     // The same geometry without the scene's lights (a Scene cannot drop lights: rebuild it).
-    lit = sim::Scene(scene.name(), scene.description());
-    for (const sim::Primitive& primitive : scene.primitives()) lit.add(primitive);
+    lit = Scene(scene.name(), scene.description());
+    for (const Primitive& primitive : scene.primitives()) lit.add(primitive);
     lit.set_T_world_start(scene.T_world_start());
     lit.set_ambient(0.0F);
   }
@@ -175,9 +173,8 @@ sim::Scene scene_with_projector(const sim::Scene& scene,
   return lit;
 }
 
-sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left,
-                                const cv::Mat& pattern, ProjectorMode mode,
-                                const ProjectorOptions& options) {
+Scene scene_with_projector(const Scene& scene, const SE3& T_world_left, const cv::Mat& pattern,
+                           ProjectorMode mode, const ProjectorOptions& options) {
   if (mode == ProjectorMode::kOff) return scene;
   // World-fixed: each view's ShadingContext carries its own camera pose, which must not move
   // the projector, so the light is placed once from the LEFT camera's pose.
@@ -187,19 +184,18 @@ sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left
       mode);
 }
 
-sim::StereoFrame render_active_stereo(const sim::Scene& scene, const RectifiedStereo& rig,
-                                      const SE3& T_world_left, const cv::Mat& pattern,
-                                      ProjectorMode mode, const ProjectorOptions& options,
-                                      const sim::RenderOptions& render_options,
-                                      std::uint64_t seed) {
-  const sim::Scene lit = scene_with_projector(scene, T_world_left, pattern, mode, options);
-  sim::StereoRenderer renderer(rig, render_options, seed);
-  sim::StereoFrame frame;
+StereoFrame render_active_stereo(const Scene& scene, const RectifiedStereo& rig,
+                                 const SE3& T_world_left, const cv::Mat& pattern,
+                                 ProjectorMode mode, const ProjectorOptions& options,
+                                 const RenderOptions& render_options, std::uint64_t seed) {
+  const Scene lit = scene_with_projector(scene, T_world_left, pattern, mode, options);
+  StereoRenderer renderer(rig, render_options, seed);
+  StereoFrame frame;
   renderer.render(lit, T_world_left, frame);
   return frame;
 }
 
-cv::Mat covisible_mask(const sim::StereoFrame& frame, double relative_tolerance) {
+cv::Mat covisible_mask(const StereoFrame& frame, double relative_tolerance) {
   const cv::Mat& truth = frame.disparity_px;
   const cv::Mat& z_left = frame.left.depth_m;
   const cv::Mat& z_right = frame.right.depth_m;
@@ -223,91 +219,4 @@ cv::Mat covisible_mask(const sim::StereoFrame& frame, double relative_tolerance)
   return mask;
 }
 
-std::string StereoExperimentOptions::describe() const {
-  std::ostringstream os;
-  os << "cameras " << width << "x" << height << ", f " << f_px << " px, baseline " << baseline_m
-     << " m, intensity noise sigma " << intensity_sigma << ", active mode "
-     << projector_mode_name(active_mode) << ", seed " << seed << "\n  " << projector.describe()
-     << "\n  pattern: " << pattern.describe() << "\n  matcher: " << matcher.describe();
-  return os.str();
-}
-
-namespace {
-
-StereoExperimentRun match_and_score(std::string name, sim::StereoFrame frame,
-                                    BlockMatcher& matcher, const cv::Mat& covisible,
-                                    const cv::Mat& lit, double bad_threshold_px) {
-  StereoExperimentRun run;
-  run.name = std::move(name);
-  run.frame = std::move(frame);
-  run.stats = matcher.match(run.frame.left.color_bgr, run.frame.right.color_bgr, run.disparity_px);
-  run.score = score_disparity(run.disparity_px, run.frame.disparity_px, bad_threshold_px, covisible);
-  run.score_lit = score_disparity(run.disparity_px, run.frame.disparity_px, bad_threshold_px, lit);
-  return run;
-}
-
-// Covisible left pixels the projector lights: a noise-free dark-room render of an all-white
-// pattern is non-zero exactly where the light reaches (its image, facing it, no shadow).
-cv::Mat projector_lit_mask(const sim::Scene& scene, const RectifiedStereo& rig,
-                           const SE3& T_world_left, const ProjectorOptions& projector,
-                           const cv::Mat& covisible) {
-  const cv::Mat white(projector.height, projector.width, CV_8UC3, cv::Scalar::all(255));
-  ProjectorOptions sharp = projector;
-  sharp.blur_sigma_px = 0.0;
-  sim::RenderOptions clean;
-  clean.noise = {};
-  clean.noise.intensity_sigma = 0.0;
-  const sim::StereoFrame f = render_active_stereo(scene, rig, T_world_left, white,
-                                                  ProjectorMode::kDarkRoom, sharp, clean, 1);
-  cv::Mat gray;
-  cv::cvtColor(f.left.color_bgr, gray, cv::COLOR_BGR2GRAY);
-  cv::Mat lit = gray > 0;
-  cv::bitwise_and(lit, covisible, lit);
-  return lit;
-}
-
-}  // namespace
-
-StereoExperimentResult run_stereo_experiment(const StereoExperimentOptions& options) {
-  options.projector.validate();
-  options.pattern.validate();
-  options.matcher.validate();
-  if (options.pattern.width != options.projector.width ||
-      options.pattern.height != options.projector.height) {
-    throw std::invalid_argument("stereo experiment: the pattern size must be the projector's");
-  }
-  RectifiedStereo rig;
-  rig.f = options.f_px;
-  rig.cu = 0.5 * static_cast<double>(options.width - 1);
-  rig.cv = 0.5 * static_cast<double>(options.height - 1);
-  rig.baseline_m = options.baseline_m;
-  rig.width = options.width;
-  rig.height = options.height;
-  rig.validate();
-
-  const sim::Scene scene = sim::make_scene("wall", options.seed);
-  const SE3 T_world_left = scene.T_world_start() * sim::forward_camera_mount();
-  sim::RenderOptions render;
-  render.noise.intensity_sigma = options.intensity_sigma;  // depth stays exact (the truth)
-
-  StereoExperimentResult result;
-  result.pattern = generate_pattern(options.pattern, options.seed);
-  // Different noise seeds for the two renderings: independent frames, as in a real capture.
-  sim::StereoFrame passive = render_active_stereo(scene, rig, T_world_left, result.pattern,
-                                                  ProjectorMode::kOff, options.projector, render,
-                                                  options.seed * 2 + 1);
-  sim::StereoFrame active = render_active_stereo(scene, rig, T_world_left, result.pattern,
-                                                 options.active_mode, options.projector, render,
-                                                 options.seed * 2 + 2);
-  result.covisible = covisible_mask(passive);
-  result.lit = projector_lit_mask(scene, rig, T_world_left, options.projector, result.covisible);
-  BlockMatcher matcher(options.matcher, rig);
-  result.passive = match_and_score("passive", std::move(passive), matcher, result.covisible,
-                                   result.lit, options.bad_threshold_px);
-  result.active = match_and_score(std::string("active-") + projector_mode_name(options.active_mode),
-                                  std::move(active), matcher, result.covisible, result.lit,
-                                  options.bad_threshold_px);
-  return result;
-}
-
-}  // namespace kestrel::sensor
+}  // namespace kestrel::sim

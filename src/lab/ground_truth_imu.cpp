@@ -1,13 +1,13 @@
 // An IMU synthesised from a ground-truth trajectory (the control experiment of docs/fusion.md).
-#include "kestrel/fusion/ground_truth_imu.hpp"
+#include "kestrel/lab/ground_truth_imu.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include "kestrel/core/error.hpp"
-#include "kestrel/fusion/simulation.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 
 using Eigen::Vector3d;
 
@@ -145,4 +145,4 @@ std::vector<io::ImuSample> imu_from_ground_truth(std::vector<GroundTruthSample>&
   return imu;
 }
 
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

@@ -1,5 +1,5 @@
 // The fusion's target experiments on the real EuRoC IMU (see docs/fusion.md).
-#include "kestrel/fusion/experiments.hpp"
+#include "kestrel/lab/fusion_experiments.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -11,11 +11,11 @@
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
-#include "kestrel/fusion/ground_truth_imu.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
+#include "kestrel/lab/ground_truth_imu.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 namespace {
 
 using Eigen::Vector3d;
@@ -31,7 +31,7 @@ std::vector<io::ImuSample> read_imu(const fs::path& csv) {
   return out;
 }
 
-FusionOptions with_sensor_noise(FusionOptions fusion, const fs::path& imu_yaml) {
+fusion::FusionOptions with_sensor_noise(fusion::FusionOptions fusion, const fs::path& imu_yaml) {
   fusion.set_imu_noise(io::load_imu_noise(imu_yaml));
   return fusion;
 }
@@ -50,7 +50,8 @@ double rotation_error_deg(const SE3& a, const SE3& b) {
 
 // The largest position error against the ground truth of IMU-only dead reckoning from x over
 // (x.t_ns, t_end], integrated as the filter does (the mean of consecutive samples).
-double dead_reckoning_max_error(NominalState x, TimeNs t_end, const std::vector<io::ImuSample>& imu,
+double dead_reckoning_max_error(fusion::NominalState x, TimeNs t_end,
+                                const std::vector<io::ImuSample>& imu,
                                 const std::map<TimeNs, std::size_t>& index,
                                 const std::vector<GroundTruthSample>& gt, const Vector3d& g_world) {
   auto k = static_cast<std::size_t>(
@@ -63,9 +64,9 @@ double dead_reckoning_max_error(NominalState x, TimeNs t_end, const std::vector<
   for (; k + 1 < imu.size() && imu[k + 1].t_ns <= t_end; ++k) {
     const double dt = ns_to_s(imu[k + 1].t_ns - std::max(imu[k].t_ns, x.t_ns));
     if (dt <= 0.0) continue;
-    const ImuReading m{0.5 * (imu[k].gyro_rad_s + imu[k + 1].gyro_rad_s),
-                       0.5 * (imu[k].accel_m_s2 + imu[k + 1].accel_m_s2)};
-    x = StochasticCloningEkf::propagate_nominal(x, m, dt, g_world);
+    const fusion::ImuReading m{0.5 * (imu[k].gyro_rad_s + imu[k + 1].gyro_rad_s),
+                               0.5 * (imu[k].accel_m_s2 + imu[k + 1].accel_m_s2)};
+    x = fusion::StochasticCloningEkf::propagate_nominal(x, m, dt, g_world);
     x.t_ns = imu[k + 1].t_ns;
     if (const GroundTruthSample* g = gt_at(index, gt, x.t_ns)) {
       max_error = std::max(max_error, (x.p_world - g->T_world_body.translation()).norm());
@@ -77,7 +78,7 @@ double dead_reckoning_max_error(NominalState x, TimeNs t_end, const std::vector<
 // The IMU against the ground truth over consecutive windows of window_s (see ImuConsistency).
 EurocExperimentResult::ImuConsistency imu_consistency(const std::vector<io::ImuSample>& imu,
                                                       const std::vector<GroundTruthSample>& gt,
-                                                      const ImuNoiseDensities& yaml,
+                                                      const fusion::ImuNoiseDensities& yaml,
                                                       const Vector3d& g_world, double window_s) {
   EurocExperimentResult::ImuConsistency c;
   const GroundTruthSpline spline(gt);
@@ -130,7 +131,7 @@ EurocExperimentResult::ImuConsistency imu_consistency(const std::vector<io::ImuS
 EurocExperimentResult run_euroc_experiment(const std::string& name,
                                            const std::vector<io::ImuSample>& real_imu,
                                            const std::vector<GroundTruthSample>& real_gt,
-                                           FusionOptions fusion,
+                                           fusion::FusionOptions fusion,
                                            const EurocExperimentOptions& opt) {
   if (real_imu.size() < 2 || real_gt.size() < 3) {
     throw InputError(name + ": not enough IMU or ground truth");
@@ -153,7 +154,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   }
   const std::vector<io::ImuSample>& imu = opt.synthetic_imu ? synthetic : real_imu;
   const std::vector<GroundTruthSample>& gt = opt.synthetic_imu ? synthetic_gt : real_gt;
-  const ImuNoiseDensities yaml_noise = fusion.noise;  // before the scales below
+  const fusion::ImuNoiseDensities yaml_noise = fusion.noise;  // before the scales below
   fusion.reorder_window_s = 0.0;
   fusion.noise.gyro_noise *= opt.imu_noise_scale;
   fusion.noise.accel_noise *= opt.imu_noise_scale;
@@ -163,8 +164,10 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   for (std::size_t i = 0; i < gt.size(); ++i) index.emplace(gt[i].t_ns, i);
 
   // Measurement frames: ground-truth samples at vo_rate_hz inside the IMU's span.
-  const double gt_dt = ns_to_s(gt[gt.size() - 1].t_ns - gt[0].t_ns) / static_cast<double>(gt.size() - 1);
-  const auto step = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(1.0 / (gt_dt * opt.vo_rate_hz))));
+  const double gt_dt =
+      ns_to_s(gt[gt.size() - 1].t_ns - gt[0].t_ns) / static_cast<double>(gt.size() - 1);
+  const auto step = std::max<std::size_t>(
+      1, static_cast<std::size_t>(std::llround(1.0 / (gt_dt * opt.vo_rate_hz))));
   std::vector<std::size_t> frames;
   for (std::size_t i = 0; i < gt.size(); i += step) {
     if (gt[i].t_ns > imu.front().t_ns && gt[i].t_ns <= imu.back().t_ns) frames.push_back(i);
@@ -189,7 +192,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   // the odometry restarts, its first frame only becomes the reference (t_ref = t, as the
   // pipeline reports a first frame).
   auto make_measurements = [&](TimeNs gap_lo, TimeNs gap_hi) {
-    std::vector<RelativePoseMeasurement> out;
+    std::vector<fusion::RelativePoseMeasurement> out;
     std::size_t ref = 0;
     int frames_on_ref = 0;
     bool restart = false;
@@ -199,7 +202,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
         restart = true;
         continue;
       }
-      RelativePoseMeasurement m;
+      fusion::RelativePoseMeasurement m;
       m.t_ns = t;
       m.covariance = cov;
       if (restart) {
@@ -212,7 +215,8 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
         continue;
       }
       const std::size_t r = opt.vo_keyframes ? ref : k - 1;
-      const SE3 T_true = (gt[frames[r]].T_world_body * T_bc).inverse() * (gt[frames[k]].T_world_body * T_bc);
+      const SE3 T_true =
+          (gt[frames[r]].T_world_body * T_bc).inverse() * (gt[frames[k]].T_world_body * T_bc);
       m.t_ref_ns = gt[frames[r]].t_ns;
       m.T_ref_cur = SE3::exp(-noise[k]) * T_true;
       ++frames_on_ref;
@@ -227,10 +231,10 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
     }
     return out;
   };
-  const std::vector<RelativePoseMeasurement> meas = make_measurements(0, 0);
+  const std::vector<fusion::RelativePoseMeasurement> meas = make_measurements(0, 0);
 
   const GroundTruthSample& g0 = gt[frames[0]];
-  NominalState x0;
+  fusion::NominalState x0;
   x0.t_ns = g0.t_ns;
   x0.p_world = g0.T_world_body.translation();
   x0.q_world_body = g0.T_world_body.unit_quaternion();
@@ -243,19 +247,20 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
     for (const auto& s : imu) {
       if (s.t_ns <= g0.t_ns) still.push_back(s);
     }
-    if (const auto xs = static_initial_state(still, fusion)) {
+    if (const auto xs = fusion::static_initial_state(still, fusion)) {
       x0.gyro_bias_rad_s = xs->gyro_bias_rad_s;
       fusion.init_sigma_gyro_bias_rad_s = opt.static_gyro_bias_sigma_rad_s;
     }
   }
 
-  auto run_filter = [&](bool with_gap, bool imu_rate, FusionCounters* counters) {
-    FusionEngine engine(fusion);
+  auto run_filter = [&](bool with_gap, bool imu_rate, fusion::FusionCounters* counters) {
+    fusion::FusionEngine engine(fusion);
     engine.initialize(x0);
     const TimeNs gap_lo = g0.t_ns + s_to_ns(opt.gap_start_s);
     const TimeNs gap_hi = gap_lo + s_to_ns(opt.gap_s);
     for (const auto& s : imu) engine.add_imu(s);
-    for (const auto& m : with_gap ? make_measurements(gap_lo, gap_hi) : meas) engine.add_relative_pose(m);
+    for (const auto& m : with_gap ? make_measurements(gap_lo, gap_hi) : meas)
+      engine.add_relative_pose(m);
     auto out = engine.flush(imu_rate);
     if (counters) *counters = engine.counters();
     return out;
@@ -279,7 +284,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   std::size_t mi = 0;
   bool checked = false;
   const TimeNs t_check = g0.t_ns + s_to_ns(opt.bias_check_after_s);
-  for (const FusedState& f : fused) {
+  for (const fusion::FusedState& f : fused) {
     if (!f.at_odometry) continue;
     while (mi < meas.size() && meas[mi].t_ns <= f.t_ns) {
       chain_w_c = chain_ref_w_c * meas[mi].T_ref_cur;
@@ -316,7 +321,7 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   const TimeNs gap_lo = g0.t_ns + s_to_ns(opt.gap_start_s);
   const TimeNs gap_hi = gap_lo + s_to_ns(opt.gap_s);
   double error_at_start = -1.0;
-  for (const FusedState& f : gapped) {
+  for (const fusion::FusedState& f : gapped) {
     const GroundTruthSample* g = gt_at(index, gt, f.t_ns);
     if (g == nullptr || std::llabs(g->t_ns - f.t_ns) > 1'000'000) continue;
     const double e = (f.state.p_world - g->T_world_body.translation()).norm();
@@ -325,16 +330,16 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
     if (f.t_ns >= gap_lo && f.t_ns <= gap_hi) {
       r.gap_max_error_m = std::max(r.gap_max_error_m, e);
       r.gap_max_sigma_p_m = std::max(r.gap_max_sigma_p_m, f.sigma.head<3>().norm());
-      if (f.flags & kFlagVoDropout) r.gap_flag_raised = true;
+      if (f.flags & fusion::kFlagVoDropout) r.gap_flag_raised = true;
     }
   }
   r.gap_error_growth_m = r.gap_max_error_m - std::max(0.0, error_at_start);
 
   // Where the gap's error comes from: the first IMU-rate state after the last update before the
   // gap (one IMU step into it) that has a ground-truth sample with biases.
-  const FusedState* start = nullptr;
+  const fusion::FusedState* start = nullptr;
   const GroundTruthSample* truth = nullptr;
-  for (const FusedState& f : gapped) {
+  for (const fusion::FusedState& f : gapped) {
     if (f.t_ns < gap_lo + 5'000'000) continue;
     truth = gt_at(index, gt, f.t_ns);
     if (truth != nullptr) {
@@ -344,8 +349,8 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   }
   if (start != nullptr && truth->has_bias && start->t_ns < gap_hi) {
     auto& d = r.gap_decomposition;
-    const NominalState& xf = start->state;
-    NominalState xt = xf;
+    const fusion::NominalState& xf = start->state;
+    fusion::NominalState xt = xf;
     xt.p_world = truth->T_world_body.translation();
     xt.q_world_body = truth->T_world_body.unit_quaternion();
     xt.v_world = truth->v_world;
@@ -359,11 +364,11 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
     d.sigma_v = start->sigma.segment<3>(6);
     d.sigma_theta_deg = start->sigma.segment<3>(3) * kRadToDeg;
     const Vector3d g_world(0.0, 0.0, -fusion.gravity_m_s2);
-    auto run = [&](const NominalState& x) {
+    auto run = [&](const fusion::NominalState& x) {
       return dead_reckoning_max_error(x, gap_hi, imu, index, gt, g_world);
     };
     d.truth = run(xt);
-    NominalState x = xt;
+    fusion::NominalState x = xt;
     x.p_world = xf.p_world;
     d.with_position = run(x);
     x = xt;
@@ -381,26 +386,27 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
   return r;
 }
 
-EurocExperimentResult run_v1_02(const fs::path& seq, const FusionOptions& fusion_in,
+EurocExperimentResult run_v1_02(const fs::path& seq, const fusion::FusionOptions& fusion_in,
                                 const EurocExperimentOptions& options) {
   const fs::path mav0 = fs::exists(seq / "mav0") ? seq / "mav0" : seq;
-  FusionOptions fusion = with_sensor_noise(fusion_in, mav0 / "imu0" / "sensor.yaml");
+  fusion::FusionOptions fusion = with_sensor_noise(fusion_in, mav0 / "imu0" / "sensor.yaml");
   fusion.T_body_cam = SE3();  // relative poses of the body itself
   const auto imu = read_imu(mav0 / "imu0" / "data.csv");
   std::vector<GroundTruthSample> gt;
   for (const auto& s : io::read_euroc_state_groundtruth(mav0 / "gt0" / "data.csv")) {
     gt.push_back({s.t_ns, s.T_world_body, s.v_world, s.gyro_bias, s.accel_bias, true});
   }
-  auto r = run_euroc_experiment("V1_02_medium (gt0 state, body relative poses)", imu, gt, fusion, options);
+  auto r = run_euroc_experiment("V1_02_medium (gt0 state, body relative poses)", imu, gt, fusion,
+                                options);
   r.bias_reference =
       options.synthetic_imu ? kSyntheticBiasReference : "gt0 gyro bias (EuRoC state ground truth)";
   return r;
 }
 
-EurocExperimentResult run_v1_01(const fs::path& seq, const FusionOptions& fusion_in,
+EurocExperimentResult run_v1_01(const fs::path& seq, const fusion::FusionOptions& fusion_in,
                                 const EurocExperimentOptions& options) {
   const fs::path mav0 = fs::exists(seq / "mav0") ? seq / "mav0" : seq;
-  FusionOptions fusion = with_sensor_noise(fusion_in, mav0 / "imu0" / "sensor.yaml");
+  fusion::FusionOptions fusion = with_sensor_noise(fusion_in, mav0 / "imu0" / "sensor.yaml");
   const io::CameraFile cam = io::load_camera_file(mav0 / "cam0" / "sensor.yaml");
   if (!cam.T_body_sensor) throw InputError(mav0 / "cam0" / "sensor.yaml", "T_BS", "missing");
   fusion.T_body_cam = *cam.T_body_sensor;
@@ -417,7 +423,8 @@ EurocExperimentResult run_v1_01(const fs::path& seq, const FusionOptions& fusion
   std::vector<GroundTruthSample> gt(cam_gt.size());
   for (std::size_t i = 0; i < cam_gt.size(); ++i) {
     gt[i].t_ns = cam_gt[i].t_ns;
-    const SE3 T_world_cam(cam_gt[i].T_world_body.so3().inverse(), cam_gt[i].T_world_body.translation());
+    const SE3 T_world_cam(cam_gt[i].T_world_body.so3().inverse(),
+                          cam_gt[i].T_world_body.translation());
     gt[i].T_world_body = T_world_cam * fusion.T_body_cam.inverse();
   }
   for (std::size_t i = 0; i < gt.size(); ++i) {
@@ -432,7 +439,7 @@ EurocExperimentResult run_v1_01(const fs::path& seq, const FusionOptions& fusion
     if (s.t_ns < gt.front().t_ns) still.push_back(s);
   }
   std::string reference = "none (IMU not still before the ground truth starts)";
-  if (const auto x = static_initial_state(still, fusion)) {
+  if (const auto x = fusion::static_initial_state(still, fusion)) {
     for (auto& g : gt) {
       g.gyro_bias = x->gyro_bias_rad_s;
       g.has_bias = true;
@@ -551,4 +558,4 @@ std::string format_summary(const EurocSeedSummary& s) {
   return o.str();
 }
 
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

@@ -10,7 +10,7 @@
 
 #include "kestrel/fusion/fusion_engine.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 
 struct EurocExperimentOptions {
   double vo_rate_hz = 20.0;
@@ -21,19 +21,20 @@ struct EurocExperimentOptions {
   double gap_s = 2.0;
   std::uint64_t seed = 1;
   /// Reference of the relative poses. Off (the default): frame to frame, each measurement
-  /// from the previous frame. On: keyframe odometry as DirectTracker reports it, each pose
-  /// relative to the current keyframe, which is switched (the frame becomes the keyframe)
-  /// when the true motion from it exceeds the rotation or translation below, or after
+  /// from the previous frame. On: keyframe odometry as odometry::DirectTracker reports it, each
+  /// pose relative to the current keyframe, which is switched (the frame becomes the keyframe) when
+  /// the true motion from it exceeds the rotation or translation below, or after
   /// vo_keyframe_max_frames frames. The same noise per measurement either way.
   bool vo_keyframes = false;
-  double vo_keyframe_max_rot_deg = 5.0;    ///< DirectTracker's default keyframe rotation
-  double vo_keyframe_max_trans_m = 0.15;   ///< 0.05 x a ~3 m median depth (the tracker's rule)
+  double vo_keyframe_max_rot_deg = 5.0;   ///< odometry::DirectTracker's default keyframe rotation
+  double vo_keyframe_max_trans_m = 0.15;  ///< 0.05 x a ~3 m median depth (the tracker's rule)
   int vo_keyframe_max_frames = 20;
   /// Multiplies the white-noise densities of imu0/sensor.yaml (gyro and accelerometer).
   double imu_noise_scale = 1.0;
   double imu_walk_scale = 1.0;
   /// Gyro bias from the still IMU samples before the first pose (static start) when they
-  /// pass the still test, with this prior sigma; otherwise zero bias, prior from FusionOptions.
+  /// pass the still test, with this prior sigma; otherwise zero bias, prior from
+  /// fusion::FusionOptions.
   bool static_gyro_bias_init = false;
   double static_gyro_bias_sigma_rad_s = 0.01;
   /// Control experiment: replace the real IMU by one synthesised from the ground truth at the
@@ -68,14 +69,14 @@ struct EurocExperimentResult {
   /// The filter's own 1-sigma of the gyro bias (norm over the axes) at bias_check_after_s.
   double gyro_bias_sigma_at_check = 0.0;
   bool gyro_bias_checked = false;  ///< false where there is no bias reference (V1_01)
-  std::string bias_reference;  ///< where the reference bias came from
+  std::string bias_reference;      ///< where the reference bias came from
   Eigen::Vector3d gyro_bias_final = Eigen::Vector3d::Zero();
   /// Gap run: largest position error inside the gap, its growth over the gap, and the
   /// largest error over the whole run with the gap.
   double gap_max_error_m = 0.0;
   double gap_error_growth_m = 0.0;
   double gap_run_max_error_m = 0.0;
-  bool gap_flag_raised = false;  ///< vo_dropout was flagged inside the gap
+  bool gap_flag_raised = false;    ///< vo_dropout was flagged inside the gap
   double gap_max_sigma_p_m = 0.0;  ///< largest 1-sigma position (norm) inside the gap
   /// Where the gap's error comes from (sequences whose ground truth has biases: V1_02): the
   /// filter's state at the gap's start against the ground truth, and the largest position
@@ -102,7 +103,7 @@ struct EurocExperimentResult {
     double accel_rms_m_s2 = 0.0, gyro_rms_rad_s = 0.0;
     double accel_yaml_m_s2 = 0.0, gyro_yaml_rad_s = 0.0;
   } imu_consistency;
-  FusionCounters counters;
+  fusion::FusionCounters counters;
 };
 
 /// Runs both experiments (no gap; a gap) on one sequence. `gt` is body ground truth on a
@@ -111,17 +112,19 @@ struct EurocExperimentResult {
 EurocExperimentResult run_euroc_experiment(const std::string& name,
                                            const std::vector<io::ImuSample>& imu,
                                            const std::vector<GroundTruthSample>& gt,
-                                           FusionOptions fusion,
+                                           fusion::FusionOptions fusion,
                                            const EurocExperimentOptions& options);
 
 /// V1_02 folder (mav0/imu0 + mav0/gt0): ground-truth state with biases.
 EurocExperimentResult run_v1_02(const std::filesystem::path& sequence,
-                                const FusionOptions& fusion, const EurocExperimentOptions& options);
+                                const fusion::FusionOptions& fusion,
+                                const EurocExperimentOptions& options);
 /// V1_01 part folder (mav0/imu0 + mav0/groundtruth_cam0 + cam0/sensor.yaml T_BS): camera
 /// ground truth (its quaternion is R_cam_world, inverted on reading; docs/fusion.md) moved to
 /// the body; bias reference from the static start of the IMU.
 EurocExperimentResult run_v1_01(const std::filesystem::path& sequence,
-                                const FusionOptions& fusion, const EurocExperimentOptions& options);
+                                const fusion::FusionOptions& fusion,
+                                const EurocExperimentOptions& options);
 
 std::string format_result(const EurocExperimentResult& r);
 
@@ -146,4 +149,4 @@ struct EurocSeedSummary {
 EurocSeedSummary summarise_draws(const std::vector<EurocExperimentResult>& results);
 std::string format_summary(const EurocSeedSummary& s);
 
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

@@ -1,12 +1,12 @@
 // Simulated flights, IMU samples and odometry for the fusion's Monte-Carlo consistency tests.
-#include "kestrel/fusion/simulation.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
 
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 namespace {
 
 using Eigen::Matrix3d;
@@ -60,8 +60,10 @@ FlightPoint SimulatedFlight::at(double t) const {
   f[5] += yaw_rate_ * t;
   df[5] += yaw_rate_;
   const double r = f[3], p = f[4], y = f[5], dr = df[3], dp = df[4], dy = df[5];
-  const Matrix3d R = (Eigen::AngleAxisd(y, Vector3d::UnitZ()) * Eigen::AngleAxisd(p, Vector3d::UnitY()) *
-                      Eigen::AngleAxisd(r, Vector3d::UnitX())).toRotationMatrix();
+  const Matrix3d R =
+      (Eigen::AngleAxisd(y, Vector3d::UnitZ()) * Eigen::AngleAxisd(p, Vector3d::UnitY()) *
+       Eigen::AngleAxisd(r, Vector3d::UnitX()))
+          .toRotationMatrix();
   FlightPoint pt;
   pt.T_world_body = SE3(SO3::from_matrix(R), Vector3d(f[0], f[1], f[2]));
   pt.v_world = Vector3d(df[0], df[1], df[2]);
@@ -88,7 +90,8 @@ Matrix6d simulated_vo_covariance(const SimulationOptions& sim) {
 }
 
 void add_imu_errors(io::ImuSample& sample, Vector3d& gyro_bias, Vector3d& accel_bias,
-                    const ImuNoiseDensities& noise, double dt, bool walk, std::mt19937_64& rng) {
+                    const fusion::ImuNoiseDensities& noise, double dt, bool walk,
+                    std::mt19937_64& rng) {
   if (walk) {
     gyro_bias += gaussian3(rng, noise.gyro_walk * std::sqrt(dt));
     accel_bias += gaussian3(rng, noise.accel_walk * std::sqrt(dt));
@@ -98,7 +101,7 @@ void add_imu_errors(io::ImuSample& sample, Vector3d& gyro_bias, Vector3d& accel_
 }
 
 SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions& sim,
-                          const FusionOptions& fusion, std::mt19937_64& rng) {
+                          const fusion::FusionOptions& fusion, std::mt19937_64& rng) {
   if (!(sim.imu_rate_hz > 0.0) || !(sim.vo_rate_hz > 0.0) || !(sim.duration_s > 0.0)) {
     throw std::invalid_argument("simulate_run: rates and duration must be positive");
   }
@@ -107,7 +110,7 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
   const double dt = ns_to_s(period);
   const auto n = static_cast<std::size_t>(sim.duration_s * sim.imu_rate_hz) + 1;
   const auto every = static_cast<std::size_t>(std::llround(sim.imu_rate_hz / sim.vo_rate_hz));
-  const ImuNoiseDensities& nd = fusion.noise;
+  const fusion::ImuNoiseDensities& nd = fusion.noise;
   SimulatedRun run;
   run.imu.reserve(n);
   if (sim.imu_noise) {
@@ -129,7 +132,7 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
     if (k % every == 0) {
       const SE3 T_world_cam = pt.T_world_body * sim.T_body_cam;
       if (k > 0) {
-        RelativePoseMeasurement m;
+        fusion::RelativePoseMeasurement m;
         m.t_ref_ns = t_prev;
         m.t_ns = t_ns;
         m.covariance = vo_cov;
@@ -144,10 +147,10 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
   return run;
 }
 
-NominalState true_state(const SimulatedFlight& flight, const SimulatedRun& run, TimeNs t_ns,
-                        double imu_rate_hz) {
+fusion::NominalState true_state(const SimulatedFlight& flight, const SimulatedRun& run, TimeNs t_ns,
+                                double imu_rate_hz) {
   const FlightPoint pt = flight.at(ns_to_s(t_ns));
-  NominalState x;
+  fusion::NominalState x;
   x.t_ns = t_ns;
   x.p_world = pt.T_world_body.translation();
   x.q_world_body = pt.T_world_body.unit_quaternion();
@@ -163,10 +166,10 @@ NominalState true_state(const SimulatedFlight& flight, const SimulatedRun& run, 
   return x;
 }
 
-NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim, const FusionOptions& fusion_in,
-                            std::uint64_t seed) {
+NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
+                            const fusion::FusionOptions& fusion_in, std::uint64_t seed) {
   if (runs < 1) throw std::invalid_argument("monte_carlo_nees: runs must be >= 1");
-  FusionOptions fusion = fusion_in;
+  fusion::FusionOptions fusion = fusion_in;
   fusion.T_body_cam = sim.T_body_cam;
   fusion.reorder_window_s = 0.0;
   NeesResult res;
@@ -178,15 +181,15 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim, const Fusion
     std::mt19937_64 rng(seed * 1000003ULL + static_cast<std::uint64_t>(r));
     const SimulatedFlight flight(seed + 1 + static_cast<std::uint64_t>(r));
     const SimulatedRun run = simulate_run(flight, sim, fusion, rng);
-    FusionEngine engine(fusion);
+    fusion::FusionEngine engine(fusion);
     // The initial estimate: the truth moved by a draw from the prior.
-    const NominalState truth0 = true_state(flight, run, 0, sim.imu_rate_hz);
-    const Vector15d e0 = sample_gaussian<15>(fusion.initial_covariance(), rng);
-    VectorXs dx = VectorXs::Zero();
+    const fusion::NominalState truth0 = true_state(flight, run, 0, sim.imu_rate_hz);
+    const fusion::Vector15d e0 = sample_gaussian<15>(fusion.initial_covariance(), rng);
+    fusion::VectorXs dx = fusion::VectorXs::Zero();
     dx.head<15>() = -e0;
-    dx.segment<3>(idx::kBg).setZero();  // the bias prior is already in the simulated biases
-    dx.segment<3>(idx::kBa).setZero();
-    NominalState x0 = truth0.boxplus(dx);
+    dx.segment<3>(fusion::idx::kBg).setZero();  // the bias prior is already in the simulated biases
+    dx.segment<3>(fusion::idx::kBa).setZero();
+    fusion::NominalState x0 = truth0.boxplus(dx);
     x0.gyro_bias_rad_s.setZero();
     x0.accel_bias_m_s2.setZero();
     engine.initialize(x0);
@@ -197,10 +200,10 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim, const Fusion
       while (i < run.imu.size() && run.imu[i].t_ns <= m.t_ns) engine.add_imu(run.imu[i++]);
       engine.add_relative_pose(m);
       const auto out = engine.flush(false);
-      const NominalState truth = true_state(flight, run, m.t_ns, sim.imu_rate_hz);
-      const NominalState& est = engine.filter().state();
-      const VectorXs e = truth.boxminus(est);
-      const MatrixXs& P = engine.filter().covariance();
+      const fusion::NominalState truth = true_state(flight, run, m.t_ns, sim.imu_rate_hz);
+      const fusion::NominalState& est = engine.filter().state();
+      const fusion::VectorXs e = truth.boxminus(est);
+      const fusion::MatrixXs& P = engine.filter().covariance();
       auto nees = [&](int at) {
         const Eigen::Matrix3d B = P.block<3, 3>(at, at);
         const Vector3d v = e.segment<3>(at);
@@ -212,21 +215,22 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim, const Fusion
         res.nees_theta.push_back(0.0);
         res.nees_v.push_back(0.0);
       }
-      res.nees_p[k] += nees(idx::kP) / runs;
-      res.nees_theta[k] += nees(idx::kTheta) / runs;
-      res.nees_v[k] += nees(idx::kV) / runs;
-      sq_err += e.segment<3>(idx::kP).squaredNorm();
+      res.nees_p[k] += nees(fusion::idx::kP) / runs;
+      res.nees_theta[k] += nees(fusion::idx::kTheta) / runs;
+      res.nees_v[k] += nees(fusion::idx::kV) / runs;
+      sq_err += e.segment<3>(fusion::idx::kP).squaredNorm();
       ++n_err;
     }
   }
-  res.lower_bound = chi_square_quantile(0.025, 3.0 * runs) / runs;
-  res.upper_bound = chi_square_quantile(0.975, 3.0 * runs) / runs;
+  res.lower_bound = fusion::chi_square_quantile(0.025, 3.0 * runs) / runs;
+  res.upper_bound = fusion::chi_square_quantile(0.975, 3.0 * runs) / runs;
   auto summarise = [&](const std::vector<double>& v, double& mean, double& inside) {
     mean = 0.0;
     inside = 0.0;
     for (double x : v) {
       mean += x / static_cast<double>(v.size());
-      if (x >= res.lower_bound && x <= res.upper_bound) inside += 1.0 / static_cast<double>(v.size());
+      if (x >= res.lower_bound && x <= res.upper_bound)
+        inside += 1.0 / static_cast<double>(v.size());
     }
   };
   summarise(res.nees_p, res.mean_p, res.inside_p);
@@ -236,4 +240,4 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim, const Fusion
   return res;
 }
 
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

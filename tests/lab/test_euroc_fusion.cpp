@@ -2,17 +2,17 @@
 // targets; the figures are in docs/fusion.md). Skips where the shared data is absent.
 #include <gtest/gtest.h>
 
-#include "kestrel/fusion/experiments.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
+#include "kestrel/lab/fusion_experiments.hpp"
 #include "test_data.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 namespace {
 
 // The real IMU starts with a large gyro bias and the filter at zero bias (fuse-eval's prior).
-FusionOptions wide_bias_prior() {
-  FusionOptions o;
+fusion::FusionOptions wide_bias_prior() {
+  fusion::FusionOptions o;
   o.init_sigma_gyro_bias_rad_s = 0.1;
   o.init_sigma_accel_bias_m_s2 = 0.2;
   return o;
@@ -45,7 +45,7 @@ TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
 
 TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  const FusionOptions o = wide_bias_prior();
+  const fusion::FusionOptions o = wide_bias_prior();
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, {});
   std::cout << format_result(r);
   // REGRESSION GUARDS at seed 1, a favourable noise draw: ratio 0.34 (0.268 vs 0.779 m), gyro
@@ -64,7 +64,7 @@ TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
 
 TEST(FusionEuroc, V1_02StaticStartBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  const FusionOptions o = wide_bias_prior();
+  const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.static_gyro_bias_init = true;  // gyro bias from the still IMU before the first pose
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
@@ -83,7 +83,7 @@ TEST(FusionEuroc, V1_02StaticStartBias) {
 // the YAML's IMU noise (docs/fusion.md has the table).
 TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  const FusionOptions o = wide_bias_prior();
+  const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
@@ -112,7 +112,7 @@ TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
 TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/imu0/data.csv");
-  const FusionOptions o = wide_bias_prior();
+  const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
   eo.imu_noise_scale = 10.0;
@@ -142,7 +142,7 @@ TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
 // also shows the targets are not met in EVERY draw even then (1 of 8 gaps above 0.3 m).
 TEST(FusionEuroc, SyntheticImuControlExperiment) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
-  const FusionOptions o = wide_bias_prior();
+  const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
   std::vector<EurocExperimentResult> synthetic, real;
@@ -206,9 +206,11 @@ TEST(FusionEuroc, V1_01Cam0QuaternionIsTheInverseOrientation) {
     SO3 gyro;
     while (k + 1 < imu.size() && imu[k + 1].t_ns <= gt[i].t_ns) ++k;
     for (std::size_t j = k; j + 1 < imu.size() && imu[j].t_ns < gt[i + 1].t_ns; ++j) {
-      const TimeNs a = std::max(imu[j].t_ns, gt[i].t_ns), b = std::min(imu[j + 1].t_ns, gt[i + 1].t_ns);
+      const TimeNs a = std::max(imu[j].t_ns, gt[i].t_ns),
+                   b = std::min(imu[j + 1].t_ns, gt[i + 1].t_ns);
       if (b <= a) continue;
-      gyro = gyro * SO3::exp((0.5 * (imu[j].gyro_rad_s + imu[j + 1].gyro_rad_s) - bias) * ns_to_s(b - a));
+      gyro = gyro *
+             SO3::exp((0.5 * (imu[j].gyro_rad_s + imu[j + 1].gyro_rad_s) - bias) * ns_to_s(b - a));
     }
     const Eigen::Vector3d w = gyro.log();
     if (w.norm() < 0.01) continue;
@@ -227,7 +229,7 @@ TEST(FusionEuroc, V1_01Cam0QuaternionIsTheInverseOrientation) {
 
 TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/groundtruth_cam0/data.csv");
-  const FusionOptions o = wide_bias_prior();
+  const fusion::FusionOptions o = wide_bias_prior();
   const auto r = run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, {});
   std::cout << format_result(r);
   // Before the fix (q read as R_world_cam) 2867 of 2870 updates were gated and the filter
@@ -241,4 +243,4 @@ TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
 }
 
 }  // namespace
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

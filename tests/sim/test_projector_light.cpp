@@ -1,5 +1,5 @@
-// Projector light: the pattern lands where the geometry says, shadows, 1/d^2 fall-off,
-// determinism per seed, and the fig. 2.7 experiment at small resolution (active >> passive).
+// The simulated projector: the pattern lands where the geometry says, shadows, 1/d^2
+// fall-off, determinism per seed.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,22 +8,22 @@
 #include <opencv2/imgproc.hpp>
 
 #include "kestrel/core/error.hpp"
-#include "kestrel/sensor/projector.hpp"
+#include "kestrel/sensor/pattern.hpp"
+#include "kestrel/sim/projector_light.hpp"
 
-namespace kestrel::sensor {
+namespace kestrel::sim {
 namespace {
 
-sim::Material white() {
-  return sim::Material{std::make_shared<const sim::Texture>(
-                           sim::Texture::constant(sim::ColorBgr(1.0F, 1.0F, 1.0F))),
-                       sim::ColorBgr(1.0F, 1.0F, 1.0F)};
+Material white() {
+  return Material{std::make_shared<const Texture>(Texture::constant(ColorBgr(1.0F, 1.0F, 1.0F))),
+                  ColorBgr(1.0F, 1.0F, 1.0F)};
 }
 
 /// A large white plane z = z_m in the world (= left camera) frame.
-sim::PlanarRect plane_at(double z_m, double half_size_m = 10.0) {
-  return sim::PlanarRect::from_corner(Eigen::Vector3d(-half_size_m, -half_size_m, z_m),
-                                      Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(),
-                                      2.0 * half_size_m, 2.0 * half_size_m, white());
+PlanarRect plane_at(double z_m, double half_size_m = 10.0) {
+  return PlanarRect::from_corner(Eigen::Vector3d(-half_size_m, -half_size_m, z_m),
+                                 Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(),
+                                 2.0 * half_size_m, 2.0 * half_size_m, white());
 }
 
 ProjectorOptions small_projector() {
@@ -45,8 +45,8 @@ RectifiedStereo small_rig() {
   return rig;
 }
 
-sim::RenderOptions exact_render() {
-  sim::RenderOptions r;
+RenderOptions exact_render() {
+  RenderOptions r;
   r.edge_supersampling = 1;
   return r;
 }
@@ -59,11 +59,11 @@ TEST(Projector, PatternLandsWherePredicted) {
   const int pu = 200, pv = 60;
   pattern(cv::Rect(pu - 2, pv - 2, 5, 5)).setTo(cv::Scalar::all(255));
   const double z_plane = 2.0;
-  sim::Scene scene("plane");
+  Scene scene("plane");
   scene.add(plane_at(z_plane));
   const RectifiedStereo rig = small_rig();
-  const sim::StereoFrame frame = render_active_stereo(scene, rig, SE3(), pattern,
-                                                      ProjectorMode::kDarkRoom, o, exact_render());
+  const StereoFrame frame =
+      render_active_stereo(scene, rig, SE3(), pattern, ProjectorMode::kDarkRoom, o, exact_render());
   // The projector ray of (pu, pv) hits z = z_plane at p_left; the cameras see it at
   // (f x / z + cu, f y / z + cv) and, in the right view, B f / z further left.
   const Eigen::Vector3d ray((pu - proj.cx()) / proj.fx(), (pv - proj.cy()) / proj.fy(), 1.0);
@@ -87,15 +87,14 @@ TEST(Projector, PatternLandsWherePredicted) {
 TEST(Projector, OccludedPointsGetNoPattern) {
   ProjectorOptions o = small_projector();
   const cv::Mat pattern(o.height, o.width, CV_8UC3, cv::Scalar::all(255));
-  sim::Scene scene("shadow");
+  Scene scene("shadow");
   scene.add(plane_at(2.0));
   // A 20 cm occluder at z = 1 straight ahead of the projector (at the world origin).
-  scene.add(sim::PlanarRect::from_corner(Eigen::Vector3d(-0.1, -0.1, 1.0),
-                                         Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 0.2,
-                                         0.2, white()));
-  const sim::ShadingContext context{scene, SE3()};
-  const sim::SurfacePoint behind{Eigen::Vector3d(0.0, 0.0, 2.0), -Eigen::Vector3d::UnitZ(), 0};
-  const sim::SurfacePoint beside{Eigen::Vector3d(0.5, 0.0, 2.0), -Eigen::Vector3d::UnitZ(), 0};
+  scene.add(PlanarRect::from_corner(Eigen::Vector3d(-0.1, -0.1, 1.0), Eigen::Vector3d::UnitX(),
+                                    Eigen::Vector3d::UnitY(), 0.2, 0.2, white()));
+  const ShadingContext context{scene, SE3()};
+  const SurfacePoint behind{Eigen::Vector3d(0.0, 0.0, 2.0), -Eigen::Vector3d::UnitZ(), 0};
+  const SurfacePoint beside{Eigen::Vector3d(0.5, 0.0, 2.0), -Eigen::Vector3d::UnitZ(), 0};
   const ProjectorLight light(SE3(), pattern, o);
   EXPECT_EQ(light.illuminate(behind, context)[1], 0.0F);
   EXPECT_GT(light.illuminate(beside, context)[1], 0.0F);
@@ -104,14 +103,14 @@ TEST(Projector, OccludedPointsGetNoPattern) {
   EXPECT_GT(no_shadows.illuminate(behind, context)[1], 0.0F);
 
   // Rendered: the shadow of the occluder on the wall is dark in the dark room.
-  sim::Scene lit("shadow-render");
+  Scene lit("shadow-render");
   lit.add(plane_at(2.0));
   const ProjectorOptions po = small_projector();
-  lit.add(sim::PlanarRect::from_corner(po.T_left_projector * Eigen::Vector3d(-0.1, -0.1, 1.0),
-                                       Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 0.2,
-                                       0.2, white()));
-  const sim::StereoFrame frame = render_active_stereo(lit, small_rig(), SE3(), pattern,
-                                                      ProjectorMode::kDarkRoom, po, exact_render());
+  lit.add(PlanarRect::from_corner(po.T_left_projector * Eigen::Vector3d(-0.1, -0.1, 1.0),
+                                  Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), 0.2, 0.2,
+                                  white()));
+  const StereoFrame frame = render_active_stereo(lit, small_rig(), SE3(), pattern,
+                                                 ProjectorMode::kDarkRoom, po, exact_render());
   // The wall point straight behind the occluder, seen from the left camera past its edge.
   const Eigen::Vector3d shadowed = po.T_left_projector * Eigen::Vector3d(0.0, 0.0, 2.0);
   const RectifiedStereo rig = small_rig();
@@ -130,42 +129,43 @@ TEST(Projector, FallOffIsInverseSquare) {
   o.power = 0.7;
   o.reference_distance_m = 2.0;
   const cv::Mat pattern(o.height, o.width, CV_8UC3, cv::Scalar::all(255));
-  const sim::Scene empty("empty");
-  const sim::ShadingContext context{empty, SE3()};
+  const Scene empty("empty");
+  const ShadingContext context{empty, SE3()};
   const ProjectorLight light(SE3(), pattern, o);
   for (const double d : {0.5, 1.0, 2.0, 3.0, 8.0}) {
-    const sim::SurfacePoint p{Eigen::Vector3d(0.0, 0.0, d), -Eigen::Vector3d::UnitZ(), 0};
+    const SurfacePoint p{Eigen::Vector3d(0.0, 0.0, d), -Eigen::Vector3d::UnitZ(), 0};
     const double e = light.illuminate(p, context)[0];
     EXPECT_NEAR(e * d * d, o.power * o.reference_distance_m * o.reference_distance_m, 1e-5)
         << "d = " << d;
   }
   // Lambertian: a surface tilted by 60 degrees gets half.
-  const sim::SurfacePoint tilted{Eigen::Vector3d(0.0, 0.0, 2.0),
-                                 Eigen::Vector3d(std::sin(std::numbers::pi / 3), 0.0, -std::cos(std::numbers::pi / 3)), 0};
+  const SurfacePoint tilted{
+      Eigen::Vector3d(0.0, 0.0, 2.0),
+      Eigen::Vector3d(std::sin(std::numbers::pi / 3), 0.0, -std::cos(std::numbers::pi / 3)), 0};
   EXPECT_NEAR(light.illuminate(tilted, context)[2], 0.5 * o.power, 1e-5);
   // Behind the projector or outside its image: nothing.
-  const sim::SurfacePoint behind{Eigen::Vector3d(0.0, 0.0, -1.0), Eigen::Vector3d::UnitZ(), 0};
+  const SurfacePoint behind{Eigen::Vector3d(0.0, 0.0, -1.0), Eigen::Vector3d::UnitZ(), 0};
   EXPECT_EQ(light.illuminate(behind, context)[0], 0.0F);
-  const sim::SurfacePoint outside{Eigen::Vector3d(5.0, 0.0, 1.0), -Eigen::Vector3d::UnitZ(), 0};
+  const SurfacePoint outside{Eigen::Vector3d(5.0, 0.0, 1.0), -Eigen::Vector3d::UnitZ(), 0};
   EXPECT_EQ(light.illuminate(outside, context)[0], 0.0F);
 }
 
 TEST(Projector, SameSeedGivesIdenticalImages) {
   const ProjectorOptions o = small_projector();
-  PatternOptions po;
+  sensor::PatternOptions po;
   po.width = o.width;
   po.height = o.height;
   po.lines = 40;
-  const cv::Mat pattern = generate_pattern(po, 3);
-  sim::Scene scene("plane");
+  const cv::Mat pattern = sensor::generate_pattern(po, 3);
+  Scene scene("plane");
   scene.add(plane_at(2.0));
-  sim::RenderOptions render;
+  RenderOptions render;
   render.noise.intensity_sigma = 2.0;
   auto frame = [&](std::uint64_t seed) {
     return render_active_stereo(scene, small_rig(), SE3(), pattern,
                                 ProjectorMode::kAmbientAndPattern, o, render, seed);
   };
-  const sim::StereoFrame a = frame(5), b = frame(5), c = frame(6);
+  const StereoFrame a = frame(5), b = frame(5), c = frame(6);
   EXPECT_EQ(cv::norm(a.left.color_bgr, b.left.color_bgr, cv::NORM_INF), 0.0);
   EXPECT_EQ(cv::norm(a.right.color_bgr, b.right.color_bgr, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(a.left.color_bgr, c.left.color_bgr, cv::NORM_INF), 0.0);
@@ -180,58 +180,5 @@ TEST(Projector, BadInput) {
   EXPECT_THROW(parse_projector_mode("bright"), InputError);
 }
 
-TEST(StereoExperiment, ActiveFillsFarMoreThanPassive) {
-  StereoExperimentOptions o;
-  o.width = 200;
-  o.height = 150;
-  o.f_px = 130.0;
-  o.matcher.max_disparity = 32;
-  o.matcher.block_size = 7;
-  const StereoExperimentResult r = run_stereo_experiment(o);
-  const double passive = r.passive.score.fill_rate();
-  const double active = r.active.score.fill_rate();
-  EXPECT_GT(r.active.score.scored, 20000U);
-  EXPECT_GT(active, 0.8) << r.active.score.describe();
-  EXPECT_GT(active, passive + 0.3) << "passive " << r.passive.score.describe();
-  EXPECT_LT(r.active.bad_rate(), 0.05) << r.active.score.describe();
-}
-
-// Issue 4's fig. 2.7 target at the experiment's full size and defaults (640x480, block 9, 200
-// lines across the image, dark room): active fill >= 95 % with <= 2 % of the filled pixels off by
-// more than 1 px, passive far below. Measured: 97.9 % / 0.57 %, passive 22.9 %.
-TEST(StereoExperiment, Fig27TargetAtFullSize) {
-  const StereoExperimentResult r = run_stereo_experiment(StereoExperimentOptions{});
-  EXPECT_GE(r.active.score.fill_rate(), 0.95) << r.active.score.describe();
-  EXPECT_LE(r.active.bad_rate(), 0.02) << r.active.score.describe();
-  EXPECT_LT(r.passive.score.fill_rate(), 0.5) << r.passive.score.describe();
-}
-
-// The lit mask: covisible pixels the projector reaches. A 100 deg projector covers the
-// cameras' view (all but its shadow); a 30 deg one a central part, whose pixels the
-// pattern fills more densely than the whole view.
-TEST(StereoExperiment, LitMaskIsTheCovisiblePartInsideTheProjectorField) {
-  StereoExperimentOptions o;
-  o.width = 200;
-  o.height = 150;
-  o.f_px = 130.0;
-  o.matcher.max_disparity = 32;
-  o.matcher.block_size = 7;
-  const StereoExperimentResult wide = run_stereo_experiment(o);
-  o.projector.horizontal_fov_deg = 30.0;
-  const StereoExperimentResult narrow = run_stereo_experiment(o);
-  for (const auto* r : {&wide, &narrow}) {
-    cv::Mat outside;
-    cv::bitwise_and(r->lit, ~r->covisible, outside);
-    EXPECT_EQ(cv::countNonZero(outside), 0);
-  }
-  const int covisible = cv::countNonZero(wide.covisible);
-  EXPECT_GT(cv::countNonZero(wide.lit), 0.9 * covisible);
-  const int narrow_lit = cv::countNonZero(narrow.lit);
-  EXPECT_GT(narrow_lit, 0.05 * covisible);
-  EXPECT_LT(narrow_lit, 0.5 * covisible);
-  EXPECT_EQ(narrow.active.score_lit.scored, static_cast<std::size_t>(narrow_lit));
-  EXPECT_GT(narrow.active.score_lit.fill_rate(), narrow.active.score.fill_rate() + 0.2);
-}
-
 }  // namespace
-}  // namespace kestrel::sensor
+}  // namespace kestrel::sim

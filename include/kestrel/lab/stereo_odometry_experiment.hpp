@@ -14,9 +14,9 @@
 #include "kestrel/odometry/direct_tracker_options.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/pattern.hpp"
-#include "kestrel/sensor/projector.hpp"
+#include "kestrel/sim/projector_light.hpp"
 
-namespace kestrel::odometry {
+namespace kestrel::lab {
 
 struct StereoOdometryExperimentOptions {
   std::string scene = "corridor";      ///< a sim scene name (sim/scenes.hpp)
@@ -29,11 +29,11 @@ struct StereoOdometryExperimentOptions {
   double baseline_m = 0.12;
   double intensity_sigma = 2.0;  ///< camera noise, grey levels
   /// The active run's lighting: kAmbientAndPattern (the corridor's lights stay on) or kDarkRoom.
-  sensor::ProjectorMode active_mode = sensor::ProjectorMode::kAmbientAndPattern;
-  sensor::ProjectorOptions projector;
+  sim::ProjectorMode active_mode = sim::ProjectorMode::kAmbientAndPattern;
+  sim::ProjectorOptions projector;
   sensor::PatternOptions pattern;
   sensor::BlockMatcherOptions matcher;
-  DirectTrackerOptions tracker;
+  odometry::DirectTrackerOptions tracker;
   std::uint64_t seed = 1;  ///< pattern, textures, noise
   /// When set, the passive and active sequences are also written as EuRoC/TUM folders
   /// (sim::SequenceWriter) under it: passive/, active/ (for `kestrel odometry --stereo`).
@@ -51,7 +51,7 @@ struct StereoOdometryRun {
   std::string description;
   Trajectory estimate;  ///< T_world_cam of the left camera, first frame = identity
   int frames = 0;
-  int failures = 0;  ///< frames whose TrackResult is not ok (the prediction was reported)
+  int failures = 0;  ///< frames whose odometry::TrackResult is not ok (the prediction was reported)
   int keyframes = 0;
   double mean_fill = 0.0;     ///< block matcher fill rate (valid / pixels), mean over frames
   double mean_points = 0.0;   ///< reference points on the finest level, mean over tracked frames
@@ -79,4 +79,4 @@ StereoOdometryExperimentResult run_stereo_odometry_experiment(
 /// One line per run: failures, fill, ATE, RPE, final drift.
 std::string format_stereo_odometry_result(const StereoOdometryExperimentResult& result);
 
-}  // namespace kestrel::odometry
+}  // namespace kestrel::lab

@@ -1,5 +1,5 @@
-// The projector of the active-stereo sensor in the renderer (thesis 2.3, fig. 2.7): a pinhole
-// light source at a calibrated pose beside the stereo pair that casts the pattern image onto the
+// The projector of the active-stereo sensor, simulated (thesis 2.3, fig. 2.7): a pinhole light
+// source at a calibrated pose beside the stereo pair that casts the pattern image onto the
 // scene, with shadows and inverse-square fall-off, and the rendering of active stereo pairs
 // (dark room: pattern only; or ambient light + pattern) with their true disparity.
 #pragma once
@@ -11,14 +11,11 @@
 
 #include "kestrel/geometry/pinhole_camera.hpp"
 #include "kestrel/geometry/se3.hpp"
-#include "kestrel/sensor/block_matcher.hpp"
-#include "kestrel/sensor/pattern.hpp"
-#include "kestrel/sensor/stereo_evaluation.hpp"
 #include "kestrel/sim/light.hpp"
 #include "kestrel/sim/renderer.hpp"
 #include "kestrel/sim/scene.hpp"
 
-namespace kestrel::sensor {
+namespace kestrel::sim {
 
 struct ProjectorOptions {
   /// Pose of the projector's optical frame (x right, y down, z forward) in the LEFT camera's
@@ -54,15 +51,15 @@ struct ProjectorOptions {
 /// camera being rendered, so both views of a stereo pair see the same pattern). A surface
 /// point p gets E = power * pattern(project(p)) * (d_ref / d)^2 [* cos], 0 outside the
 /// projector image, behind it, or in shadow (Scene::occluded between p and the projector).
-class ProjectorLight final : public sim::LightSource {
+class ProjectorLight final : public LightSource {
  public:
   /// `pattern`: CV_8UC3 (BGR) or CV_8UC1 of options.width x options.height. Throws
   /// InputError for an empty pattern or the wrong size, std::invalid_argument for bad options.
   ProjectorLight(const SE3& T_world_projector, const cv::Mat& pattern,
                  const ProjectorOptions& options);
 
-  [[nodiscard]] sim::ColorBgr illuminate(const sim::SurfacePoint& point,
-                                         const sim::ShadingContext& context) const override;
+  [[nodiscard]] ColorBgr illuminate(const SurfacePoint& point,
+                                    const ShadingContext& context) const override;
   [[nodiscard]] std::string describe() const override;
 
   [[nodiscard]] const SE3& T_world_projector() const { return T_world_projector_; }
@@ -94,73 +91,24 @@ const char* projector_mode_name(ProjectorMode mode);
 /// A copy of `scene` lit for `mode`: with a world-fixed ProjectorLight at
 /// T_world_left * T_left_projector (none for kOff); for kDarkRoom, ambient 0 and without the
 /// scene's lights.
-sim::Scene scene_with_projector(const sim::Scene& scene, const SE3& T_world_left,
-                                const cv::Mat& pattern, ProjectorMode mode,
-                                const ProjectorOptions& options);
+Scene scene_with_projector(const Scene& scene, const SE3& T_world_left, const cv::Mat& pattern,
+                           ProjectorMode mode, const ProjectorOptions& options);
 /// The same with a given light (for a projector that moves with the rig: keep the pointer and
 /// ProjectorLight::set_pose() it before each frame). For kOff the light is not added.
-sim::Scene scene_with_projector(const sim::Scene& scene,
-                                const std::shared_ptr<const ProjectorLight>& light,
-                                ProjectorMode mode);
+Scene scene_with_projector(const Scene& scene, const std::shared_ptr<const ProjectorLight>& light,
+                           ProjectorMode mode);
 
 /// Renders a rectified stereo pair of `scene` from T_world_left lit as `mode` says, with the
 /// sensor noise of `render_options`; the frame holds left, right and the true left disparity.
 /// `seed` seeds the noise: the same seed gives identical images.
-sim::StereoFrame render_active_stereo(const sim::Scene& scene, const RectifiedStereo& rig,
-                                      const SE3& T_world_left, const cv::Mat& pattern,
-                                      ProjectorMode mode, const ProjectorOptions& options = {},
-                                      const sim::RenderOptions& render_options = {},
-                                      std::uint64_t seed = 1);
+StereoFrame render_active_stereo(const Scene& scene, const RectifiedStereo& rig,
+                                 const SE3& T_world_left, const cv::Mat& pattern,
+                                 ProjectorMode mode, const ProjectorOptions& options = {},
+                                 const RenderOptions& render_options = {}, std::uint64_t seed = 1);
 
 /// Left pixels whose surface point both cameras see (CV_8U, 255 = yes): the truth has a
 /// disparity d and the right view's depth at u - d (nearest pixel) matches the left depth
 /// within `relative_tolerance`. Needs exact depth (no depth noise) in the frame.
-cv::Mat covisible_mask(const sim::StereoFrame& frame, double relative_tolerance = 0.02);
+cv::Mat covisible_mask(const StereoFrame& frame, double relative_tolerance = 0.02);
 
-/// The thesis' fig. 2.7 experiment: the "wall" scene (a plain low-texture wall with a box
-/// before it) seen from its start pose by a rectified pair, rendered passive (the scene's
-/// ambient + ceiling light) and active (the pattern), both matched by the BlockMatcher and
-/// scored against the rendered truth over the pixels both cameras see.
-struct StereoExperimentOptions {
-  int width = 640;          ///< camera image size
-  int height = 480;
-  double f_px = 420.0;      ///< rectified focal length (71 x 59 deg field of view at 640x480)
-  double baseline_m = 0.12;
-  /// Gaussian intensity noise of both cameras, grey levels (sim SensorNoiseOptions).
-  double intensity_sigma = 2.0;
-  ProjectorMode active_mode = ProjectorMode::kDarkRoom;
-  ProjectorOptions projector;
-  PatternOptions pattern;   ///< thesis 2.3: 200 lines at 1280x720
-  BlockMatcherOptions matcher;
-  std::uint64_t seed = 1;   ///< pattern, scene textures and noise
-  double bad_threshold_px = 1.0;
-
-  [[nodiscard]] std::string describe() const;
-};
-
-struct StereoExperimentRun {
-  std::string name;          ///< "passive" or the projector mode
-  sim::StereoFrame frame;    ///< rendered views and the true left disparity
-  cv::Mat disparity_px;      ///< the matcher's left disparity (kNoDisparity where none)
-  MatchStats stats;
-  DisparityScore score;      ///< over the covisible pixels
-  /// Over the covisible pixels the projector lights (inside its image, facing it, not in its
-  /// shadow): where an active sensor can give depth at all (thesis 5: the projector's lens
-  /// limits the sensor's field of view).
-  DisparityScore score_lit;
-  /// Share of the filled covisible pixels off by more than the threshold.
-  [[nodiscard]] double bad_rate() const { return score.bad_rate_of_filled(); }
-};
-
-struct StereoExperimentResult {
-  StereoExperimentRun passive;
-  StereoExperimentRun active;
-  cv::Mat pattern;    ///< the projected image (CV_8UC3)
-  cv::Mat covisible;  ///< CV_8U mask of the scored pixels
-  cv::Mat lit;        ///< CV_8U mask of the covisible pixels the projector lights
-};
-
-/// Runs the experiment. Throws std::invalid_argument for invalid options.
-StereoExperimentResult run_stereo_experiment(const StereoExperimentOptions& options);
-
-}  // namespace kestrel::sensor
+}  // namespace kestrel::sim

@@ -9,9 +9,9 @@
 #include <random>
 #include <vector>
 
-#include "kestrel/fusion/experiments.hpp"
+#include "kestrel/lab/fusion_experiments.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 
 /// The trajectory through the ground-truth samples that the synthetic IMU measures: positions
 /// on a natural cubic spline (per axis, through every sample), orientation rotating at a
@@ -43,8 +43,9 @@ class GroundTruthSpline {
 };
 
 struct GroundTruthImuOptions {
-  /// Densities of the sensor YAML (continuous time), as the filter's FusionOptions holds them.
-  ImuNoiseDensities noise;
+  /// Densities of the sensor YAML (continuous time), as the filter's fusion::FusionOptions holds
+  /// them.
+  fusion::ImuNoiseDensities noise;
   double gravity_m_s2 = 9.81;
   /// On: biases at the first sample the ground truth's where it has them, else zero, then their
   /// random walks, and white noise, with the densities above. Off: an ideal IMU.
@@ -60,4 +61,4 @@ std::vector<io::ImuSample> imu_from_ground_truth(std::vector<GroundTruthSample>&
                                                  const GroundTruthImuOptions& options,
                                                  std::mt19937_64& rng);
 
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

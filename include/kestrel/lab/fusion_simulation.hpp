@@ -14,7 +14,7 @@
 
 #include "kestrel/fusion/fusion_engine.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 
 /// The body's full kinematic state at one instant.
 struct FlightPoint {
@@ -43,31 +43,34 @@ class SimulatedFlight {
 };
 
 /// gyro = omega_body, accel = R^T (a - g): an ideal IMU on the body.
-io::ImuSample ideal_imu_sample(const FlightPoint& point, TimeNs t_ns, const Eigen::Vector3d& g_world);
+io::ImuSample ideal_imu_sample(const FlightPoint& point, TimeNs t_ns,
+                               const Eigen::Vector3d& g_world);
 
-/// The sensor model of FusionOptions::noise applied to one ideal sample taken dt after the
+/// The sensor model of fusion::FusionOptions::noise applied to one ideal sample taken dt after the
 /// previous one: with `walk` the biases first walk by density * sqrt(dt); then the sample gets
 /// the biases plus white noise of density / sqrt(dt). Draws, in order: gyro walk, accel walk (if
 /// walk), gyro noise, accel noise.
 void add_imu_errors(io::ImuSample& sample, Eigen::Vector3d& gyro_bias, Eigen::Vector3d& accel_bias,
-                    const ImuNoiseDensities& noise, double dt, bool walk, std::mt19937_64& rng);
+                    const fusion::ImuNoiseDensities& noise, double dt, bool walk,
+                    std::mt19937_64& rng);
 
 struct SimulationOptions {
   double duration_s = 30.0;
   double imu_rate_hz = 200.0;
   double vo_rate_hz = 20.0;
-  double vo_sigma_p_m = 0.01;       ///< per relative pose, per axis
-  double vo_sigma_rot_deg = 0.5;    ///< per relative pose, per axis
-  bool imu_noise = true;            ///< white noise and bias random walk as in FusionOptions
+  double vo_sigma_p_m = 0.01;     ///< per relative pose, per axis
+  double vo_sigma_rot_deg = 0.5;  ///< per relative pose, per axis
+  bool imu_noise = true;          ///< white noise and bias random walk as in fusion::FusionOptions
   /// Camera in the body: EuRoC V1_01 cam0 T_BS, rounded (exercises the extrinsics path).
-  SE3 T_body_cam = SE3(SO3::from_matrix((Eigen::Matrix3d() << 0, -1, 0, 1, 0, 0, 0, 0, 1).finished()),
-                       Eigen::Vector3d(-0.02, -0.06, 0.01));
+  SE3 T_body_cam =
+      SE3(SO3::from_matrix((Eigen::Matrix3d() << 0, -1, 0, 1, 0, 0, 0, 0, 1).finished()),
+          Eigen::Vector3d(-0.02, -0.06, 0.01));
 };
 
 /// One simulated run: IMU samples, odometry measurements and the truth.
 struct SimulatedRun {
   std::vector<io::ImuSample> imu;
-  std::vector<RelativePoseMeasurement> odometry;
+  std::vector<fusion::RelativePoseMeasurement> odometry;
   Eigen::Vector3d gyro_bias0 = Eigen::Vector3d::Zero();
   Eigen::Vector3d accel_bias0 = Eigen::Vector3d::Zero();
   /// True biases at every IMU sample (index-aligned with imu).
@@ -75,14 +78,14 @@ struct SimulatedRun {
 };
 
 /// The true nominal state (biases from the run) at time t_ns.
-NominalState true_state(const SimulatedFlight& flight, const SimulatedRun& run, TimeNs t_ns,
-                        double imu_rate_hz);
+fusion::NominalState true_state(const SimulatedFlight& flight, const SimulatedRun& run, TimeNs t_ns,
+                                double imu_rate_hz);
 
 /// Draws a run: initial biases from the prior of `fusion` (init_sigma_*_bias), then their
 /// random walks and white noise with its densities; odometry noise xi ~ N(0, Sigma) applied
 /// as T_meas = exp(-xi) T_true, so that T_true = exp(xi) T_meas as the filter assumes.
 SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions& sim,
-                          const FusionOptions& fusion, std::mt19937_64& rng);
+                          const fusion::FusionOptions& fusion, std::mt19937_64& rng);
 
 /// The measurement covariance the odometry reports in simulation.
 Matrix6d simulated_vo_covariance(const SimulationOptions& sim);
@@ -92,15 +95,15 @@ struct NeesResult {
   std::vector<double> t_s;
   /// Averages over the runs at each odometry time stamp (3 dof each).
   std::vector<double> nees_p, nees_theta, nees_v;
-  double lower_bound = 0.0, upper_bound = 0.0;  ///< 95 % two-sided, chi2(3 runs) / runs
-  double mean_p = 0.0, mean_theta = 0.0, mean_v = 0.0;      ///< time averages
+  double lower_bound = 0.0, upper_bound = 0.0;          ///< 95 % two-sided, chi2(3 runs) / runs
+  double mean_p = 0.0, mean_theta = 0.0, mean_v = 0.0;  ///< time averages
   double inside_p = 0.0, inside_theta = 0.0, inside_v = 0.0;  ///< fraction of time steps inside
-  double rmse_p_m = 0.0;  ///< over all runs and steps
+  double rmse_p_m = 0.0;                                      ///< over all runs and steps
 };
 
 /// Monte-Carlo NEES of the filter: each run draws the initial estimate from the prior
 /// around the truth, a new flight (seed + run) and new noise.
-NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim, const FusionOptions& fusion,
-                            std::uint64_t seed);
+NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
+                            const fusion::FusionOptions& fusion, std::uint64_t seed);
 
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

@@ -1,5 +1,5 @@
 // Disparity scoring and the Middlebury loader.
-#include "kestrel/sensor/stereo_evaluation.hpp"
+#include "kestrel/lab/stereo_evaluation.hpp"
 
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
@@ -9,7 +9,7 @@
 
 #include "kestrel/core/error.hpp"
 
-namespace kestrel::sensor {
+namespace kestrel::lab {
 namespace fs = std::filesystem;
 
 double DisparityScore::bad_rate_of_filled() const {
@@ -22,8 +22,8 @@ std::string DisparityScore::describe() const {
   os.setf(std::ios::fixed);
   os.precision(2);
   os << "fill " << 100.0 * fill_rate() << "%, bad(>" << bad_threshold_px << " px, missing = bad) "
-     << 100.0 * bad_rate() << "%, bad of filled " << 100.0 * bad_rate_of_filled()
-     << "%, RMS " << rms_error_px << " px over " << scored << " px";
+     << 100.0 * bad_rate() << "%, bad of filled " << 100.0 * bad_rate_of_filled() << "%, RMS "
+     << rms_error_px << " px over " << scored << " px";
   return os.str();
 }
 
@@ -113,4 +113,4 @@ cv::Mat colorize_disparity(const cv::Mat& disparity_px, double max_disparity_px)
   return color;
 }
 
-}  // namespace kestrel::sensor
+}  // namespace kestrel::lab

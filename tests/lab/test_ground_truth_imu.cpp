@@ -5,11 +5,11 @@
 #include <cmath>
 
 #include "kestrel/core/error.hpp"
-#include "kestrel/fusion/ground_truth_imu.hpp"
-#include "kestrel/fusion/simulation.hpp"
 #include "kestrel/fusion/stochastic_cloning_ekf.hpp"
+#include "kestrel/lab/fusion_simulation.hpp"
+#include "kestrel/lab/ground_truth_imu.hpp"
 
-namespace kestrel::fusion {
+namespace kestrel::lab {
 namespace {
 
 using Eigen::Vector3d;
@@ -98,7 +98,7 @@ TEST(GroundTruthImu, NoiseFreeImuOfASampledFlightDeadReckonsIt) {
   // 2 s of dead reckoning from the true state at 4 s (the length of the fusion's gap), on the
   // synthetic IMU and, for the integrator's own error, on the ideal IMU of the analytic flight.
   auto dead_reckoning = [&](const std::vector<io::ImuSample>& samples, const Vector3d& v0) {
-    NominalState x;
+    fusion::NominalState x;
     const FlightPoint p0 = flight.at(4.0);
     x.t_ns = s_to_ns(4.0);
     x.p_world = p0.T_world_body.translation();
@@ -106,9 +106,9 @@ TEST(GroundTruthImu, NoiseFreeImuOfASampledFlightDeadReckonsIt) {
     x.v_world = v0;
     double max_error = 0.0;
     for (std::size_t k = 800; samples[k + 1].t_ns <= s_to_ns(6.0); ++k) {  // [800]: 4 s
-      const ImuReading m{0.5 * (samples[k].gyro_rad_s + samples[k + 1].gyro_rad_s),
-                         0.5 * (samples[k].accel_m_s2 + samples[k + 1].accel_m_s2)};
-      x = StochasticCloningEkf::propagate_nominal(x, m, ns_to_s(kImuPeriod), g_world);
+      const fusion::ImuReading m{0.5 * (samples[k].gyro_rad_s + samples[k + 1].gyro_rad_s),
+                                 0.5 * (samples[k].accel_m_s2 + samples[k + 1].accel_m_s2)};
+      x = fusion::StochasticCloningEkf::propagate_nominal(x, m, ns_to_s(kImuPeriod), g_world);
       x.t_ns = samples[k + 1].t_ns;
       if (x.t_ns % kGtPeriod == 0) {  // at the ground-truth samples, which the spline holds
         const auto& g = gt[static_cast<std::size_t>(x.t_ns / kGtPeriod)];
@@ -184,4 +184,4 @@ TEST(GroundTruthImu, StampsOutsideTheGroundTruthAreAnError) {
 }
 
 }  // namespace
-}  // namespace kestrel::fusion
+}  // namespace kestrel::lab

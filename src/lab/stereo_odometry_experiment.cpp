@@ -1,6 +1,6 @@
 // Passive vs active stereo odometry on a rendered corridor: render both lightings along one
 // trajectory, match, track in disparity space, score against the rendered truth.
-#include "kestrel/odometry/stereo_odometry_experiment.hpp"
+#include "kestrel/lab/stereo_odometry_experiment.hpp"
 
 #include <cmath>
 #include <iomanip>
@@ -17,7 +17,7 @@
 #include "kestrel/sim/sequence_writer.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
 
-namespace kestrel::odometry {
+namespace kestrel::lab {
 
 void StereoOdometryExperimentOptions::validate() const {
   auto fail = [](const std::string& field, const std::string& why) {
@@ -29,7 +29,7 @@ void StereoOdometryExperimentOptions::validate() const {
   if (!(f_px > 0.0) || !std::isfinite(f_px)) fail("f_px", "must be positive");
   if (!(baseline_m > 0.0) || !std::isfinite(baseline_m)) fail("baseline_m", "must be positive");
   if (!(intensity_sigma >= 0.0)) fail("intensity_sigma", "must be >= 0");
-  if (active_mode == sensor::ProjectorMode::kOff) fail("active_mode", "must light the pattern");
+  if (active_mode == sim::ProjectorMode::kOff) fail("active_mode", "must light the pattern");
   projector.validate();
   pattern.validate();
   matcher.validate();
@@ -44,11 +44,10 @@ std::string StereoOdometryExperimentOptions::describe() const {
   os << "scene " << scene << ", trajectory " << trajectory << ", " << frames << " frames at "
      << rate_hz << " Hz, cameras " << width << "x" << height << ", f " << f_px << " px, baseline "
      << baseline_m << " m, intensity noise sigma " << intensity_sigma << ", active mode "
-     << sensor::projector_mode_name(active_mode) << ", seed " << seed << "\n  "
-     << projector.describe() << "\n  pattern: " << pattern.describe()
-     << "\n  matcher: " << matcher.describe() << "\n  tracker: pyramid_levels "
-     << tracker.pyramid_levels << ", max_points_per_level " << tracker.max_points_per_level
-     << " (other tracker options at their defaults unless set)";
+     << sim::projector_mode_name(active_mode) << ", seed " << seed << "\n  " << projector.describe()
+     << "\n  pattern: " << pattern.describe() << "\n  matcher: " << matcher.describe()
+     << "\n  tracker: pyramid_levels " << tracker.pyramid_levels << ", max_points_per_level "
+     << tracker.max_points_per_level << " (other tracker options at their defaults unless set)";
   return os.str();
 }
 
@@ -63,7 +62,7 @@ struct RunState {
   double points_sum = 0.0;
   int tracked = 0;
 
-  void add(std::size_t k, TimeNs t_ns, const TrackResult& r, double fill) {
+  void add(std::size_t k, TimeNs t_ns, const odometry::TrackResult& r, double fill) {
     run.estimate.push_back({t_ns, r.T_world_cam});
     ++run.frames;
     fill_sum += fill;
@@ -140,14 +139,14 @@ StereoOdometryExperimentResult run_stereo_odometry_experiment(
         std::make_unique<sim::SequenceWriter>(o.write_sequences_to / "active", layout, o.force);
   }
 
-  StereoOdometry passive(rig, o.matcher, o.tracker);
-  StereoOdometry active(rig, o.matcher, o.tracker);
-  DirectTracker active_depth(rig, o.tracker);  // active disparity, passive intensity
+  odometry::StereoOdometry passive(rig, o.matcher, o.tracker);
+  odometry::StereoOdometry active(rig, o.matcher, o.tracker);
+  odometry::DirectTracker active_depth(rig, o.tracker);  // active disparity, passive intensity
 
   RunState rp, ra, rd;
   rp.run.name = "passive";
   rp.run.description = "scene lights only; disparity and tracking from the passive pair";
-  ra.run.name = std::string("active-") + sensor::projector_mode_name(o.active_mode);
+  ra.run.name = std::string("active-") + sim::projector_mode_name(o.active_mode);
   ra.run.description =
       "disparity and tracking from the pattern-lit pair (the pattern moves "
       "with the rig)";
@@ -167,19 +166,19 @@ StereoOdometryExperimentResult run_stereo_odometry_experiment(
 
     const std::uint64_t noise_seed = o.seed * 1'000'003ULL + 2ULL * static_cast<std::uint64_t>(k);
     const sim::StereoFrame p =
-        sensor::render_active_stereo(scene, rig, T_world_left, pattern, sensor::ProjectorMode::kOff,
-                                     o.projector, render, noise_seed + 1);
-    const sim::StereoFrame a = sensor::render_active_stereo(
+        sim::render_active_stereo(scene, rig, T_world_left, pattern, sim::ProjectorMode::kOff,
+                                  o.projector, render, noise_seed + 1);
+    const sim::StereoFrame a = sim::render_active_stereo(
         scene, rig, T_world_left, pattern, o.active_mode, o.projector, render, noise_seed + 2);
 
-    const StereoTrackResult r_p =
+    const odometry::StereoTrackResult r_p =
         passive.track_rectified(t_ns, p.left.color_bgr, p.right.color_bgr, p.left.color_bgr);
     rp.add(static_cast<std::size_t>(k), t_ns, r_p.track, r_p.match.fill_rate());
-    const StereoTrackResult r_a =
+    const odometry::StereoTrackResult r_a =
         active.track_rectified(t_ns, a.left.color_bgr, a.right.color_bgr, a.left.color_bgr);
     ra.add(static_cast<std::size_t>(k), t_ns, r_a.track, r_a.match.fill_rate());
-    const TrackResult r_d =
-        active_depth.track(DisparityFrame{t_ns, p.left.color_bgr, active.disparity()});
+    const odometry::TrackResult r_d =
+        active_depth.track(odometry::DisparityFrame{t_ns, p.left.color_bgr, active.disparity()});
     rd.add(static_cast<std::size_t>(k), t_ns, r_d, r_a.match.fill_rate());
 
     if (passive_writer) {
@@ -219,4 +218,4 @@ std::string format_stereo_odometry_result(const StereoOdometryExperimentResult& 
   return os.str();
 }
 
-}  // namespace kestrel::odometry
+}  // namespace kestrel::lab

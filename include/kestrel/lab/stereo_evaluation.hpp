@@ -6,13 +6,13 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-namespace kestrel::sensor {
+namespace kestrel::lab {
 
 struct DisparityScore {
-  std::size_t scored = 0;       ///< pixels with known truth (in the mask, if any)
-  std::size_t filled = 0;       ///< of those, pixels with a disparity
-  std::size_t bad = 0;          ///< of those, no disparity or |error| > threshold
-  double rms_error_px = 0.0;    ///< over filled pixels
+  std::size_t scored = 0;     ///< pixels with known truth (in the mask, if any)
+  std::size_t filled = 0;     ///< of those, pixels with a disparity
+  std::size_t bad = 0;        ///< of those, no disparity or |error| > threshold
+  double rms_error_px = 0.0;  ///< over filled pixels
   double bad_threshold_px = 1.0;
 
   [[nodiscard]] double fill_rate() const { return scored ? double(filled) / double(scored) : 0.0; }
@@ -45,4 +45,4 @@ MiddleburyPair load_middlebury_pair(const std::filesystem::path& folder);
 /// A false-colour image of a disparity map (CV_8UC3, black where none), for figures.
 cv::Mat colorize_disparity(const cv::Mat& disparity_px, double max_disparity_px);
 
-}  // namespace kestrel::sensor
+}  // namespace kestrel::lab
