@@ -1,4 +1,5 @@
-// The subcommands of `kestrel`; each file cmd_<name>.cpp registers one.
+// The subcommands of `kestrel`: the user's commands (cmd_<name>.cpp) and, under `kestrel lab`,
+// the experiments and studies (lab_<name>.cpp). Each file registers one.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -9,12 +10,16 @@ void add_evaluate_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_odometry_command(CLI::App& app);
 void add_fuse_command(CLI::App& app);
-void add_fuse_eval_command(CLI::App& app);
 void add_pattern_command(CLI::App& app);
 void add_disparity_command(CLI::App& app);
-void add_stereo_experiment_command(CLI::App& app);
 void add_fly_command(CLI::App& app);
 void add_capture_command(CLI::App& app);
 void add_run_command(CLI::App& app);
+
+/// `kestrel lab`: the group of lab commands below, and hidden stand-ins for their former
+/// top-level names that say where they went.
+void add_lab_command(CLI::App& app);
+void add_fuse_eval_command(CLI::App& lab);
+void add_stereo_experiment_command(CLI::App& lab);
 
 }  // namespace kestrel::cli

@@ -232,14 +232,14 @@ TEST_F(CmdFuse, MissingCalibrationFieldIsAClearError) {
 }
 
 TEST_F(CmdFuse, FuseEvalMovesTheGapAndRejectsANegativeStart) {
-  const RunResult bad = run("fuse-eval --data " + quoted(dir_.string()) + " --gap-start -1");
+  const RunResult bad = run("lab fuse-eval --data " + quoted(dir_.string()) + " --gap-start -1");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("--gap-start"), std::string::npos) << bad.err;
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth");
   const std::string data = quoted(test::shared_data_dir().string());
   // Two gap positions give two different runs: the option reaches the experiment.
-  const RunResult at6 = run("fuse-eval --skip-sim --data " + data + " --gap-start 6");
-  const RunResult at15 = run("fuse-eval --skip-sim --data " + data + " --gap-start 15");
+  const RunResult at6 = run("lab fuse-eval --skip-sim --data " + data + " --gap-start 6");
+  const RunResult at15 = run("lab fuse-eval --skip-sim --data " + data + " --gap-start 15");
   ASSERT_EQ(at6.exit_code, 0) << at6.err;
   ASSERT_EQ(at15.exit_code, 0) << at15.err;
   auto gap_line = [](const std::string& out) {
@@ -256,7 +256,7 @@ TEST_F(CmdFuse, FuseEvalSyntheticImuIsLabelledAsAControlExperiment) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth");
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1");
   const std::string data = quoted(test::shared_data_dir().string());
-  const RunResult r = run("fuse-eval --skip-sim --vo-keyframes --synthetic-imu --data " + data);
+  const RunResult r = run("lab fuse-eval --skip-sim --vo-keyframes --synthetic-imu --data " + data);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("CONTROL EXPERIMENT"), std::string::npos) << r.out;
   std::size_t n = 0;
@@ -265,7 +265,7 @@ TEST_F(CmdFuse, FuseEvalSyntheticImuIsLabelledAsAControlExperiment) {
     ++n;
   }
   EXPECT_EQ(n, 2u) << r.out;  // V1_02 and V1_01
-  const RunResult real = run("fuse-eval --skip-sim --vo-keyframes --data " + data);
+  const RunResult real = run("lab fuse-eval --skip-sim --vo-keyframes --data " + data);
   ASSERT_EQ(real.exit_code, 0) << real.err;
   EXPECT_EQ(real.out.find("CONTROL EXPERIMENT"), std::string::npos);
 }

@@ -1,6 +1,6 @@
 // The fusion's target experiments on real EuRoC data: propagate on the real IMU, feed 20 Hz
 // relative poses made from the ground truth with known noise, compare with the ground truth
-// and with chaining the same noisy relative poses. `kestrel fuse-eval` runs them.
+// and with chaining the same noisy relative poses. `kestrel lab fuse-eval` runs them.
 #pragma once
 
 #include <cstdint>

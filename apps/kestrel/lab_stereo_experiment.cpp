@@ -1,4 +1,4 @@
-// `kestrel stereo-experiment` (thesis fig. 2.7): the "wall" scene rendered passive (ambient
+// `kestrel lab stereo-experiment` (thesis fig. 2.7): the "wall" scene rendered passive (ambient
 // light, low texture) and active (the projector's pattern), matched by the block matcher and
 // scored against the rendered truth; writes the views, both disparity maps (PNG + PFM).
 // With --odometry: the corridor sequence rendered passive and active, tracked in disparity
@@ -21,7 +21,7 @@ namespace kestrel::cli {
 namespace {
 namespace fs = std::filesystem;
 
-constexpr const char* kStereoExperimentCommand = "stereo-experiment";
+constexpr const char* kStereoExperimentCommand = "lab stereo-experiment";
 
 struct ExperimentArgs {
   fs::path out;
@@ -40,7 +40,8 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   // The flags shared with the single-frame experiment.
   if (cmd.count("--seed") > 0) o.seed = args.options.seed;
   if (cmd.count("--block") > 0) o.matcher.block_size = args.options.matcher.block_size;
-  if (cmd.count("--max-disparity") > 0) o.matcher.max_disparity = args.options.matcher.max_disparity;
+  if (cmd.count("--max-disparity") > 0)
+    o.matcher.max_disparity = args.options.matcher.max_disparity;
   if (cmd.count("--lines") > 0) o.pattern.lines = args.options.pattern.lines;
   if (cmd.count("--segments") > 0) o.pattern.full_lines = false;
   if (cmd.count("--min-length") > 0) o.pattern.min_length_px = args.options.pattern.min_length_px;
@@ -58,7 +59,7 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
     o.write_sequences_to = args.out;
     o.force = true;  // inside the folder this command has just claimed
   }
-  std::cerr << "kestrel stereo-experiment --odometry: " << o.describe() << "\n";
+  std::cerr << "kestrel lab stereo-experiment --odometry: " << o.describe() << "\n";
   const lab::StereoOdometryExperimentResult r = lab::run_stereo_odometry_experiment(o);
   io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kStereoExperimentCommand,
                            true);
@@ -73,8 +74,8 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
             << lab::format_stereo_odometry_result(r);
   for (const auto& run : r.runs) {
     std::cout << run.name << "_failures=" << run.failures << " " << run.name
-              << "_final_error_m=" << run.final_error_m << " " << run.name << "_ate_m="
-              << (run.evaluated ? run.ate.stats_m.rmse : -1.0) << " ";
+              << "_final_error_m=" << run.final_error_m << " " << run.name
+              << "_ate_m=" << (run.evaluated ? run.ate.stats_m.rmse : -1.0) << " ";
   }
   std::cout << "\n";
 }
@@ -95,9 +96,9 @@ void print_run(const lab::StereoExperimentRun& run) {
   const auto& s = run.score;
   std::cout << run.name << ": fill " << 100.0 * s.fill_rate() << " % of " << s.scored
             << " covisible pixels, RMS error " << s.rms_error_px << " px, bad (> "
-            << s.bad_threshold_px << " px) " << 100.0 * run.bad_rate()
-            << " % of filled (" << 100.0 * s.bad_rate() << " % counting missing as bad); matcher: "
-            << run.stats.describe() << "\n";
+            << s.bad_threshold_px << " px) " << 100.0 * run.bad_rate() << " % of filled ("
+            << 100.0 * s.bad_rate()
+            << " % counting missing as bad); matcher: " << run.stats.describe() << "\n";
   const auto& l = run.score_lit;
   std::cout << "  over the " << l.scored << " covisible pixels the projector lights: fill "
             << 100.0 * l.fill_rate() << " %, RMS error " << l.rms_error_px << " px, bad "
@@ -119,7 +120,7 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
     throw InputError(e.what());
   }
   io::claim_output_dir(args.out, kStereoExperimentCommand, args.force);
-  std::cerr << "kestrel stereo-experiment: " << args.options.describe() << "\n";
+  std::cerr << "kestrel lab stereo-experiment: " << args.options.describe() << "\n";
   const lab::StereoExperimentResult r = lab::run_stereo_experiment(args.options);
 
   const double max_d = args.options.matcher.max_disparity;
@@ -145,19 +146,22 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
 
 }  // namespace
 
-void add_stereo_experiment_command(CLI::App& app) {
+void add_stereo_experiment_command(CLI::App& lab) {
   auto args = std::make_shared<ExperimentArgs>();
-  CLI::App* cmd = app.add_subcommand(
+  CLI::App* cmd = lab.add_subcommand(
       "stereo-experiment",
       "Thesis fig. 2.7: a plain wall with a box before it, rendered passive and with the "
       "projector's pattern; fill rate and error of the block matcher against the truth.");
   auto& o = args->options;
   cmd->add_option("--out", args->out, "output folder")->required();
-  cmd->add_option("--seed", o.seed, "seed of the pattern, textures and noise")->capture_default_str();
-  cmd->add_option("--block", o.matcher.block_size, "matching window side (odd)")->capture_default_str();
+  cmd->add_option("--seed", o.seed, "seed of the pattern, textures and noise")
+      ->capture_default_str();
+  cmd->add_option("--block", o.matcher.block_size, "matching window side (odd)")
+      ->capture_default_str();
   cmd->add_option("--max-disparity", o.matcher.max_disparity, "disparities searched: 0 <= d < N")
       ->capture_default_str();
-  cmd->add_option("--mode", args->mode, "active lighting: dark (pattern only) or ambient (+ pattern)")
+  cmd->add_option("--mode", args->mode,
+                  "active lighting: dark (pattern only) or ambient (+ pattern)")
       ->capture_default_str();
   cmd->add_option("--lines", o.pattern.lines, "pattern line count")->capture_default_str();
   cmd->add_flag("--segments{false}", o.pattern.full_lines,
@@ -188,7 +192,8 @@ void add_stereo_experiment_command(CLI::App& app) {
   cmd->add_option("--width", q.width, "--odometry: image width")->capture_default_str();
   cmd->add_option("--height", q.height, "--odometry: image height")->capture_default_str();
   cmd->add_option("--focal", q.f_px, "--odometry: focal length [px]")->capture_default_str();
-  cmd->add_option("--pyramid-levels", q.tracker.pyramid_levels, "--odometry: tracker pyramid levels")
+  cmd->add_option("--pyramid-levels", q.tracker.pyramid_levels,
+                  "--odometry: tracker pyramid levels")
       ->capture_default_str();
   cmd->add_flag("--write-sequences", args->write_sequences,
                 "--odometry: also write the passive/ and active/ EuRoC folders "
