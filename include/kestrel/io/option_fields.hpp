@@ -2,9 +2,11 @@
 // `visit_fields(visitor)` member, and printing, loading with unknown-key rejection, and the
 // file/field error messages all derive from that table, so they cannot disagree.
 //
-// A field may be double, int, bool, std::string, a fixed-size Eigen vector, or an enum whose
-// namespace declares `std::string_view to_string(E)` and `void parse_option(std::string_view,
-// E&)` (found by argument-dependent lookup; the parser throws on an unknown name).
+// A field may be a number (any arithmetic type), bool, std::string, a fixed-size Eigen vector,
+// an enum whose namespace declares `std::string_view to_string(E)` and `void
+// parse_option(std::string_view, E&)` (found by argument-dependent lookup; the parser throws on
+// an unknown name), or a nested options struct with its own visit_fields (a YAML map; its
+// fields are named "outer.inner" in messages).
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -29,12 +31,29 @@ struct IsEigenVector : std::false_type {};
 template <int N>
 struct IsEigenVector<Eigen::Matrix<double, N, 1>> : std::true_type {};
 
+struct NoOpVisitor {
+  template <typename T>
+  void operator()(const char* /*name*/, T& /*value*/) const {}
+};
+
 }  // namespace detail
 
-inline std::string value_text(double v) { return io::format_double(v); }
-inline std::string value_text(int v) { return std::to_string(v); }
+/// A nested options struct: it has its own field table.
+template <typename T>
+concept NestedOptions = requires(T& t) {
+  t.visit_fields(detail::NoOpVisitor{});
+};
+
 inline std::string value_text(bool v) { return v ? "true" : "false"; }
 inline std::string value_text(const std::string& v) { return v; }
+template <typename T>
+requires(std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) std::string value_text(T v) {
+  if constexpr (std::is_floating_point_v<T>) {
+    return io::format_double(static_cast<double>(v));
+  } else {
+    return std::to_string(v);
+  }
+}
 template <int N>
 std::string value_text(const Eigen::Matrix<double, N, 1>& v) {
   std::string s = "[";
@@ -44,7 +63,8 @@ std::string value_text(const Eigen::Matrix<double, N, 1>& v) {
 template <typename E>
 requires std::is_enum_v<E> std::string value_text(E v) { return std::string(to_string(v)); }
 
-/// Reads one field's value from its YAML node; throws (any std::exception) on a wrong type.
+/// Reads one plain field's value from its YAML node; throws (any std::exception) on a wrong
+/// type.
 template <typename T>
 void read_value(const YAML::Node& node, T& value) {
   if constexpr (std::is_enum_v<T>) {
@@ -60,40 +80,67 @@ void read_value(const YAML::Node& node, T& value) {
   }
 }
 
-/// "name: value" lines, one per field, in table order (valid YAML).
+namespace detail {
+
+template <typename Options>
+void write_fields(std::ostringstream& out, Options& options, const std::string& indent) {
+  options.visit_fields([&](const char* name, const auto& value) {
+    using T = std::decay_t<decltype(value)>;
+    if constexpr (NestedOptions<T>) {
+      out << indent << name << ":\n";
+      T copy = value;
+      write_fields(out, copy, indent + "  ");
+    } else {
+      out << indent << name << ": " << value_text(value) << "\n";
+    }
+  });
+}
+
+}  // namespace detail
+
+/// "name: value" lines, one per field, in table order, nested structs as indented maps (valid
+/// YAML that read_fields() loads back to the same values).
 template <typename Options>
 std::string to_yaml(const Options& options) {
   std::ostringstream out;
   Options copy = options;
-  copy.visit_fields([&](const char* name, const auto& value) {
-    out << name << ": " << value_text(value) << "\n";
-  });
+  detail::write_fields(out, copy, "");
   return out.str();
 }
 
 /// Fields present in `node` override those of `options`; unknown keys and wrong types are
-/// InputErrors naming `source` and the field. `what` names the options in messages
-/// ("controller", "tracker").
+/// InputErrors naming `source` and the field ("prefix" + name; nested fields "outer.inner").
+/// `what` names the options in messages ("controller", "tracker").
 template <typename Options>
 void read_fields(const YAML::Node& node, const std::string& source, const char* what,
-                 Options& options) {
+                 Options& options, const std::string& prefix = "") {
   if (!node || node.IsNull()) return;
-  if (!node.IsMap()) throw InputError(source + ": " + what + " options must be a YAML map");
+  if (!node.IsMap()) {
+    if (prefix.empty()) throw InputError(source + ": " + what + " options must be a YAML map");
+    throw InputError(source, prefix.substr(0, prefix.size() - 1), "must be a YAML map");
+  }
   std::set<std::string> known;
   options.visit_fields([&](const char* name, auto& value) {
     known.insert(name);
     const YAML::Node v = node[name];
     if (!v) return;
-    try {
-      read_value(v, value);
-    } catch (const std::exception& e) {
-      throw InputError(source, name, std::string("has the wrong type or value (") + e.what() + ")");
+    using T = std::decay_t<decltype(value)>;
+    if constexpr (NestedOptions<T>) {
+      read_fields(v, source, what, value, prefix + name + ".");
+    } else {
+      try {
+        read_value(v, value);
+      } catch (const std::exception& e) {
+        throw InputError(source, prefix + name,
+                         std::string("has the wrong type or value (") + e.what() + ")");
+      }
     }
   });
   for (const auto& kv : node) {
     const auto key = kv.first.as<std::string>();
-    if (known.count(key) == 0)
-      throw InputError(source, key, std::string("is not a ") + what + " option");
+    if (known.count(key) == 0) {
+      throw InputError(source, prefix + key, std::string("is not a ") + what + " option");
+    }
   }
 }
 

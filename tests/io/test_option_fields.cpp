@@ -1,0 +1,128 @@
+// The options field table (io/option_fields.hpp): every kind of field round-trips through its
+// printed YAML, and a bad file is an error naming the file and the (nested) field.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
+
+namespace kestrel::io {
+namespace {
+
+enum class Shape { kRound, kSquare };
+std::string_view to_string(Shape s) { return s == Shape::kRound ? "round" : "square"; }
+void parse_option(std::string_view name, Shape& s) {
+  if (name == "round") {
+    s = Shape::kRound;
+  } else if (name == "square") {
+    s = Shape::kSquare;
+  } else {
+    throw std::invalid_argument("unknown shape '" + std::string(name) + "' (round, square)");
+  }
+}
+
+struct Inner {
+  int count = 3;
+  Shape shape = Shape::kRound;
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("count", count);
+    v("shape", shape);
+  }
+};
+
+struct Outer {
+  double gain = 0.25;
+  float scale = 1.5F;
+  bool enabled = true;
+  std::uint64_t seed = 7;
+  std::string name = "kestrel";
+  Eigen::Vector3d offset = Eigen::Vector3d(0.1, -0.2, 0.3);
+  Inner inner;
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("gain", gain);
+    v("scale", scale);
+    v("enabled", enabled);
+    v("seed", seed);
+    v("name", name);
+    v("offset", offset);
+    v("inner", inner);
+  }
+};
+
+Outer read(const std::string& text, Outer o = {}) {
+  option_fields::read_fields(YAML::Load(text), "opts.yaml", "test", o);
+  return o;
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    read(text);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(OptionFields, EveryKindOfFieldRoundTripsThroughItsYaml) {
+  Outer changed;
+  changed.gain = -1.0 / 3.0;
+  changed.scale = 0.1F;
+  changed.enabled = false;
+  changed.seed = 18446744073709551615ULL;
+  changed.name = "falcon";
+  changed.offset = Eigen::Vector3d(1e-9, 2.5, -3e7);
+  changed.inner.count = -4;
+  changed.inner.shape = Shape::kSquare;
+  const std::string yaml = option_fields::to_yaml(changed);
+  const Outer back = read(yaml);
+  EXPECT_EQ(back.gain, changed.gain) << yaml;
+  EXPECT_EQ(back.scale, changed.scale);
+  EXPECT_EQ(back.enabled, changed.enabled);
+  EXPECT_EQ(back.seed, changed.seed);
+  EXPECT_EQ(back.name, changed.name);
+  EXPECT_EQ(back.offset, changed.offset);
+  EXPECT_EQ(back.inner.count, changed.inner.count);
+  EXPECT_EQ(back.inner.shape, changed.inner.shape);
+  EXPECT_EQ(option_fields::to_yaml(back), yaml);
+}
+
+TEST(OptionFields, NestedStructsPrintAsIndentedMaps) {
+  const std::string yaml = option_fields::to_yaml(Outer{});
+  EXPECT_NE(yaml.find("inner:\n  count: 3\n  shape: round\n"), std::string::npos) << yaml;
+}
+
+TEST(OptionFields, AbsentFieldsKeepTheirValues) {
+  Outer start;
+  start.gain = 9.0;
+  const Outer o = read("name: x\ninner:\n  count: 5\n", start);
+  EXPECT_EQ(o.gain, 9.0);
+  EXPECT_EQ(o.name, "x");
+  EXPECT_EQ(o.inner.count, 5);
+  EXPECT_EQ(o.inner.shape, Shape::kRound);
+  EXPECT_EQ(read("").gain, Outer{}.gain);  // an empty file changes nothing
+}
+
+TEST(OptionFields, ErrorsNameTheFileAndTheField) {
+  EXPECT_EQ(error_of("gian: 1"), "opts.yaml: field 'gian': is not a test option");
+  EXPECT_EQ(error_of("inner:\n  cont: 1"), "opts.yaml: field 'inner.cont': is not a test option");
+  EXPECT_NE(error_of("gain: fast").find("opts.yaml: field 'gain': has the wrong type"),
+            std::string::npos);
+  EXPECT_NE(error_of("inner:\n  count: 1.5").find("field 'inner.count': has the wrong type"),
+            std::string::npos);
+  const std::string shape = error_of("inner:\n  shape: oval");
+  EXPECT_NE(shape.find("field 'inner.shape'"), std::string::npos) << shape;
+  EXPECT_NE(shape.find("unknown shape 'oval' (round, square)"), std::string::npos) << shape;
+  EXPECT_NE(error_of("offset: [1, 2]").find("field 'offset'"), std::string::npos);
+  EXPECT_EQ(error_of("inner: 3"), "opts.yaml: field 'inner': must be a YAML map");
+  EXPECT_EQ(error_of("- a\n- b"), "opts.yaml: test options must be a YAML map");
+}
+
+}  // namespace
+}  // namespace kestrel::io
