@@ -18,6 +18,14 @@ sim::RenderOptions render_options(const StereoVisionOptions& o) {
   return r;
 }
 
+// Rendered pairs are rectified already; the RGB-D tracker needs metric depth.
+sensor::StereoFrontEndOptions front_end_options(const StereoVisionOptions& o) {
+  sensor::StereoFrontEndOptions f;
+  f.matcher = o.matcher;
+  f.compute_depth = true;
+  return f;
+}
+
 }  // namespace
 
 sim::ProjectorOptions rig_projector_options() {
@@ -72,7 +80,7 @@ StereoVision::StereoVision(const sim::Scene& scene, const StereoVisionOptions& o
           SE3(), sensor::generate_pattern(options.pattern, seed), options.projector)),
       lit_scene_(sim::scene_with_projector(scene, projector_, options.projector_mode)),
       renderer_(rig_, render_options(options), seed),
-      matcher_(options.matcher, rig_),
+      front_end_(rig_, front_end_options(options)),
       tracker_(rig_.left(), options.tracker),
       measurements_(options.measurement_reference, options.covariance_scale) {
   if (options_.track_without_pattern &&
@@ -112,11 +120,9 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   }
   out.render_ms = ms_since(start);
 
-  start = std::chrono::steady_clock::now();
-  const sensor::MatchStats stats = matcher_.match(left_gray_, right_gray_, disparity_);
-  sensor::disparity_to_depth(disparity_, rig_, depth_m_);
-  out.depth_fill = stats.fill_rate();
-  out.match_ms = ms_since(start);
+  front_end_.process(t_ns, left_gray_, right_gray_, depth_);
+  out.depth_fill = depth_.match.fill_rate();
+  out.match_ms = depth_.rectify_ms + depth_.match_ms;
 
   // A long gap (odometry switched off, a stalled pipeline): the keyframe is stale and the
   // constant-velocity guess meaningless, so the tracker restarts from this frame.
@@ -130,7 +136,7 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
   odometry::RgbdFrame frame;
   frame.t_ns = t_ns;
   frame.image = tracking_gray_;
-  frame.depth_m = depth_m_;
+  frame.depth_m = depth_.depth_m;
   out.track = tracker_.track(frame);
   out.track_ms = ms_since(start);
   out.measurement = measurements_.next(out.track);

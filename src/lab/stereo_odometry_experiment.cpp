@@ -172,10 +172,9 @@ StereoOdometryExperimentResult run_stereo_odometry_experiment(
         scene, rig, T_world_left, pattern, o.active_mode, o.projector, render, noise_seed + 2);
 
     const odometry::StereoTrackResult r_p =
-        passive.track_rectified(t_ns, p.left.color_bgr, p.right.color_bgr, p.left.color_bgr);
+        passive.track(t_ns, p.left.color_bgr, p.right.color_bgr);
     rp.add(static_cast<std::size_t>(k), t_ns, r_p.track, r_p.match.fill_rate());
-    const odometry::StereoTrackResult r_a =
-        active.track_rectified(t_ns, a.left.color_bgr, a.right.color_bgr, a.left.color_bgr);
+    const odometry::StereoTrackResult r_a = active.track(t_ns, a.left.color_bgr, a.right.color_bgr);
     ra.add(static_cast<std::size_t>(k), t_ns, r_a.track, r_a.match.fill_rate());
     const odometry::TrackResult r_d =
         active_depth.track(odometry::DisparityFrame{t_ns, p.left.color_bgr, active.disparity()});

@@ -17,7 +17,7 @@
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "kestrel/pipeline/bounded_queue.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
-#include "kestrel/sensor/rectification.hpp"
+#include "kestrel/sensor/stereo_front_end.hpp"
 
 namespace kestrel::pipeline {
 
@@ -33,7 +33,7 @@ struct FrameItem {
 struct DisparityItem {
   TimeNs t_ns = 0;
   Clock::time_point arrived;
-  cv::Mat left_rect, disparity;  // fresh buffers per frame: shared read-only downstream
+  sensor::StereoDepthFrame frame;  // fresh buffers per frame: shared read-only downstream
 };
 struct TrackItem {
   TimeNs t_ns = 0;
@@ -58,8 +58,7 @@ struct Context {
   CameraFrameSource* camera;          // camera source, else null
   std::ostream* log;                  // the camera's problem frames
   std::size_t frames = 0;             // folder source: pairs to emit
-  sensor::StereoRectifier& rectifier;
-  sensor::BlockMatcher& matcher;
+  sensor::StereoFrontEnd& front_end;
   odometry::DirectTracker& tracker;
   fusion::FusionOptions fusion_options;
 
@@ -81,15 +80,14 @@ struct Context {
   std::optional<driver::CaptureReport> camera_report;
 
   Context(const PipelineOptions& o, const std::atomic<bool>* s, const io::EurocSequence* seq,
-          CameraFrameSource* cam, std::ostream* l, sensor::StereoRectifier& r,
-          sensor::BlockMatcher& m, odometry::DirectTracker& t, const fusion::FusionOptions& f)
+          CameraFrameSource* cam, std::ostream* l, sensor::StereoFrontEnd& fe,
+          odometry::DirectTracker& t, const fusion::FusionOptions& f)
       : options(o),
         stop(s),
         sequence(seq),
         camera(cam),
         log(l),
-        rectifier(r),
-        matcher(m),
+        front_end(fe),
         tracker(t),
         fusion_options(f),
         frame_q(o.frame_queue_capacity, policy(o)),
@@ -202,11 +200,9 @@ void depth_stage(Context& c, StageStats& st) {
   while (auto item = c.frame_q.pop()) {
     ++st.in;
     const auto start = Clock::now();
-    DisparityItem out{item->t_ns, item->arrived, {}, {}};
-    cv::Mat right_rect;
-    c.rectifier.rectify(item->left, item->right, out.left_rect, right_rect);
-    const sensor::MatchStats m = c.matcher.match(out.left_rect, right_rect, out.disparity);
-    if (m.valid == 0) ++st.failed;
+    DisparityItem out{item->t_ns, item->arrived, {}};
+    c.front_end.process(item->t_ns, item->left, item->right, out.frame);
+    if (out.frame.match.valid == 0) ++st.failed;
     st.add_processing(start, Clock::now());
     const auto arrived = out.arrived;
     if (c.disparity_q.push(std::move(out))) st.add_output(arrived, Clock::now());
@@ -219,8 +215,8 @@ void tracker_stage(Context& c, StageStats& st) {
   while (auto item = c.disparity_q.pop()) {
     ++st.in;
     const auto start = Clock::now();
-    const odometry::TrackResult r =
-        c.tracker.track(odometry::DisparityFrame{item->t_ns, item->left_rect, item->disparity});
+    const odometry::TrackResult r = c.tracker.track(
+        odometry::DisparityFrame{item->t_ns, item->frame.left_rect, item->frame.disparity_px});
     TrackItem out{item->t_ns, item->arrived, measurements.next(r), std::nullopt};
     if (r.ok()) {
       out.T_world_cam = r.T_world_cam;
@@ -356,13 +352,13 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
   const bool camera_source = options.source == Source::kCamera;
   std::optional<io::EurocSequence> sequence;
   std::optional<CameraFrameSource> camera;
-  std::optional<sensor::StereoRectifier> rectifier;
+  std::optional<sensor::StereoCalibration> calibration;
   fusion::FusionOptions fusion_options = options.fusion;
   if (camera_source) {
     // The device first: a missing camera is reported before anything is built.
     camera.emplace(options.camera, options.config_file,
                    environment.camera_io ? environment.camera_io : driver::system_device_io());
-    rectifier.emplace(*options.camera.calibration);
+    calibration = *options.camera.calibration;
   } else {
     if (!std::filesystem::exists(options.input)) {
       throw InputError(options.input.string() + ": input folder does not exist");
@@ -375,26 +371,23 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
     }
     if (!sequence->has_imu())
       throw InputError(options.input.string() + ": no imu0/ (the fusion needs it)");
-    rectifier.emplace(sensor::StereoCalibration::from_euroc(*sequence));
+    calibration = sensor::StereoCalibration::from_euroc(*sequence);
   }
 
-  const RectifiedStereo& rig = rectifier->rig();
-  std::optional<sensor::BlockMatcher> matcher;
-  try {
-    matcher.emplace(options.matcher, rig);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("block matcher: ") + e.what());
-  }
+  sensor::StereoFrontEndOptions front_end_options;
+  front_end_options.matcher = options.matcher;
+  sensor::StereoFrontEnd front_end(*calibration, front_end_options);
+  const RectifiedStereo& rig = front_end.rig();
   odometry::DirectTracker tracker(rig, options.tracker);
   if (!camera_source) {
     fusion_options.set_imu_noise(sequence->imu_noise());
-    fusion_options.T_body_cam = body_from_rectified_camera(*sequence, rectifier->R_rect_left());
+    fusion_options.T_body_cam = body_from_rectified_camera(*sequence, front_end.R_rect_left());
     fusion_options.reorder_window_s = 0.0;  // the fusion stage orders its inputs itself
     fusion_options.validate();
   }
 
   Context c(options, stop, sequence ? &*sequence : nullptr, camera ? &*camera : nullptr,
-            environment.log, *rectifier, *matcher, tracker, fusion_options);
+            environment.log, front_end, tracker, fusion_options);
   if (sequence) {
     c.frames = options.max_frames == 0 ? sequence->stereo_size()
                                        : std::min(options.max_frames, sequence->stereo_size());

@@ -12,8 +12,8 @@
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
-#include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/pattern.hpp"
+#include "kestrel/sensor/stereo_front_end.hpp"
 #include "kestrel/sim/projector_light.hpp"
 #include "kestrel/sim/renderer.hpp"
 #include "kestrel/sim/scene.hpp"
@@ -90,7 +90,7 @@ class StereoVision {
   /// The last left stereo image, tracking image and depth (for figures).
   [[nodiscard]] const cv::Mat& last_left_gray() const { return left_gray_; }
   [[nodiscard]] const cv::Mat& last_tracking_gray() const { return tracking_gray_; }
-  [[nodiscard]] const cv::Mat& last_depth_m() const { return depth_m_; }
+  [[nodiscard]] const cv::Mat& last_depth_m() const { return depth_.depth_m; }
 
  private:
   StereoVisionOptions options_;
@@ -101,10 +101,11 @@ class StereoVision {
   std::optional<sim::Renderer> tracking_renderer_;  // the left view without the pattern
   sim::Scene scene_;                               // unlit by the projector
   sim::RenderedFrame tracking_frame_;
-  sensor::BlockMatcher matcher_;
+  sensor::StereoFrontEnd front_end_;
   odometry::DirectTracker tracker_;
   sim::StereoFrame frame_;
-  cv::Mat left_gray_, right_gray_, tracking_gray_, disparity_, depth_m_;
+  cv::Mat left_gray_, right_gray_, tracking_gray_;
+  sensor::StereoDepthFrame depth_;
   fusion::OdometryMeasurements measurements_;
   std::optional<TimeNs> last_frame_ns_;
 };

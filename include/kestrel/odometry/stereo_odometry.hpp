@@ -1,6 +1,7 @@
-// Stereo odometry front end (thesis 2.4-2.5, 3.6-3.10): rectify the raw pair (optional), block-
-// match the left disparity, track the left view in disparity space. Lives in its own library
-// (kestrel::stereo_odometry) so that the tracker itself depends on image/geometry only.
+// Stereo odometry (thesis 2.4-2.5, 3.6-3.10): the stereo front end (rectify the raw pair when
+// calibrated as raw, block-match the left disparity) and the direct tracker in disparity
+// space. Lives in its own library (kestrel::stereo_odometry) so that the tracker itself
+// depends on image/geometry only.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -8,8 +9,7 @@
 #include <string>
 
 #include "kestrel/odometry/direct_tracker.hpp"
-#include "kestrel/sensor/block_matcher.hpp"
-#include "kestrel/sensor/rectification.hpp"
+#include "kestrel/sensor/stereo_front_end.hpp"
 
 namespace kestrel::odometry {
 
@@ -30,31 +30,29 @@ class StereoOdometry {
   StereoOdometry(const RectifiedStereo& rig, const sensor::BlockMatcherOptions& matcher_options,
                  const DirectTrackerOptions& tracker_options);
 
-  /// Rectifies (if raw), matches and tracks one pair. Bad images (empty, wrong size or type)
-  /// give a kInvalidInput result naming the problem; nothing is thrown for them.
+  /// Rectifies (if raw), matches and tracks the left view of one pair. Bad images (empty,
+  /// wrong size or type) give a kInvalidInput result naming the problem; nothing is thrown for
+  /// them.
   StereoTrackResult track(TimeNs t_ns, const cv::Mat& left, const cv::Mat& right);
+  /// The same, tracking `tracking_image` instead of the left view: another image of the
+  /// (rectified) left camera, such as the pattern-free view of an active sensor.
+  StereoTrackResult track(TimeNs t_ns, const cv::Mat& left, const cv::Mat& right,
+                          const cv::Mat& tracking_image);
 
-  /// Matches one rectified pair and tracks `tracking_image` (the left view, or another image of
-  /// the same camera: a pattern-free view of an active sensor) in disparity space.
-  StereoTrackResult track_rectified(TimeNs t_ns, const cv::Mat& left, const cv::Mat& right,
-                                    const cv::Mat& tracking_image);
-
-  [[nodiscard]] const RectifiedStereo& rig() const { return rig_; }
+  [[nodiscard]] const RectifiedStereo& rig() const { return front_end_.rig(); }
   /// Rotation from the raw left camera frame to the rectified one (identity without
   /// rectification): poses are of the rectified left camera.
-  [[nodiscard]] Eigen::Matrix3d R_rect_left() const;
+  [[nodiscard]] Eigen::Matrix3d R_rect_left() const { return front_end_.R_rect_left(); }
   /// The last rectified left view and its disparity (kNoDisparity where none).
-  [[nodiscard]] const cv::Mat& left_rectified() const { return left_rect_; }
-  [[nodiscard]] const cv::Mat& disparity() const { return disparity_; }
+  [[nodiscard]] const cv::Mat& left_rectified() const { return frame_.left_rect; }
+  [[nodiscard]] const cv::Mat& disparity() const { return frame_.disparity_px; }
   [[nodiscard]] const DirectTracker& tracker() const { return tracker_; }
-  [[nodiscard]] const sensor::BlockMatcher& matcher() const { return matcher_; }
+  [[nodiscard]] const sensor::StereoFrontEnd& front_end() const { return front_end_; }
 
  private:
-  std::optional<sensor::StereoRectifier> rectifier_;
-  RectifiedStereo rig_;
-  sensor::BlockMatcher matcher_;
+  sensor::StereoFrontEnd front_end_;
   DirectTracker tracker_;
-  cv::Mat left_rect_, right_rect_, disparity_;
+  sensor::StereoDepthFrame frame_;
 };
 
 }  // namespace kestrel::odometry
