@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <deque>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -38,6 +39,182 @@ double rms_over(const FlightResult& r, const std::function<double(const FlightSa
     ++n;
   }
   return n == 0 ? 0.0 : std::sqrt(sum / static_cast<double>(n));
+}
+
+/// The estimate the controller flies on and the estimator's health for the supervisor.
+struct EstimatorOutput {
+  control::VehicleStateEstimate estimate;
+  control::EstimatorHealth health;
+};
+
+/// Every component of the closed loop, with the state carried from one tick to the next.
+/// Declaration order is construction order: output_ starts from mapper_'s motors-off channels.
+class FlightLoop {
+ public:
+  FlightLoop(const sim::Scene& scene, const FlightOptions& options, const Scenario& scenario);
+
+  [[nodiscard]] const sim::QuadrotorState& truth() const { return vehicle_.state(); }
+  /// This tick's IMU sample, the camera frame if one is due, and the measurements that have
+  /// reached the filter by t_ns.
+  void sense(TimeNs t_ns, double t_s);
+  /// One on-board control step: estimate, safety, position control, command to the motors.
+  FlightSample control_step(TimeNs t_ns, double t_s);
+  void step_vehicle(double dt_s) { vehicle_.step(dt_s, output_.latest()); }
+
+  [[nodiscard]] control::SafetyMode mode() const { return supervisor_.mode(); }
+  /// The frame counters and the filter's.
+  [[nodiscard]] FlightCounters counters() const;
+
+ private:
+  void start_estimator();
+  void camera_frame(TimeNs t_ns, double t_s);
+  EstimatorOutput estimate(TimeNs t_ns);
+
+  const FlightOptions& options_;
+  const Scenario& scenario_;
+  sim::SimulatedVehicle vehicle_;
+  sim::VehicleImuSimulator imu_;
+  StereoVision vision_;
+  fusion::FusionEngine fusion_;
+  ImuForwardPredictor predictor_;
+  control::PositionController controller_;
+  control::PwmMapper mapper_;
+  control::SimulatedPwmOutput output_;
+  control::SafetySupervisor supervisor_;
+  control::CommandWatchdog watchdog_;
+
+  double camera_period_s_;
+  std::int64_t next_frame_ = 0;  // index of the next camera frame
+  std::deque<InFlight> in_flight_;
+  bool vo_ok_ = false;
+  TimeNs last_vision_update_ns_ = 0;
+  double position_sigma_m_ = 0.0;
+  FlightCounters counters_;
+};
+
+/// The vehicle hovers at the scene's start pose.
+FlightLoop::FlightLoop(const sim::Scene& scene, const FlightOptions& options,
+                       const Scenario& scenario)
+    : options_(options),
+      scenario_(scenario),
+      vehicle_(options.vehicle, options.flight_controller,
+               sim::Quadrotor::hover_state(options.vehicle, scene.T_world_start().translation(),
+                                           control::yaw_of(scene.T_world_start().so3())),
+               options.physics_rate_hz),
+      imu_(options.imu_noise, options.seed),
+      vision_(scene, options.vision, options.seed),
+      fusion_(options.fusion),
+      predictor_(control::kGravity),
+      controller_(options.controller),
+      mapper_(options.pwm),
+      output_(mapper_.motors_off()),
+      supervisor_(options.safety),
+      watchdog_(options.watchdog),
+      camera_period_s_(1.0 / options.camera_rate_hz) {
+  start_estimator();
+}
+
+// The filter starts at the known take-off pose (the world frame is defined there), at rest,
+// with zero bias estimates.
+void FlightLoop::start_estimator() {
+  fusion::NominalState initial;
+  initial.t_ns = 0;
+  initial.p_world = vehicle_.state().p_world;
+  initial.q_world_body = vehicle_.state().R_world_body.unit_quaternion();
+  fusion_.initialize(initial);
+  fusion::FusedState start;
+  start.state = initial;
+  predictor_.set_fused(start);
+}
+
+void FlightLoop::sense(TimeNs t_ns, double t_s) {
+  const io::ImuSample sample = imu_.sample(vehicle_.state());
+  fusion_.add_imu(sample);
+  predictor_.add_imu(sample);
+  if (t_s + 1e-9 >= static_cast<double>(next_frame_) * camera_period_s_) {
+    ++next_frame_;
+    camera_frame(t_ns, t_s);
+  }
+  while (!in_flight_.empty() && in_flight_.front().arrives_ns <= t_ns) {
+    fusion_.add_relative_pose(in_flight_.front().measurement);
+    in_flight_.pop_front();
+  }
+}
+
+// The frame is rendered from the true pose; its measurement reaches the filter after the
+// vision latency.
+void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
+  const bool off = options_.vo_off_at_s >= 0.0 && t_s >= options_.vo_off_at_s &&
+                   t_s < options_.vo_off_at_s + options_.vo_off_for_s;
+  if (off) {
+    ++counters_.frames_off;
+    vo_ok_ = false;
+    return;
+  }
+  const sim::QuadrotorState& truth = vehicle_.state();
+  const VisionFrame frame = vision_.process(t_ns, SE3(truth.R_world_body, truth.p_world));
+  ++counters_.frames;
+  counters_.depth_fill_sum += frame.depth_fill;
+  counters_.render_ms += frame.render_ms;
+  counters_.match_ms += frame.match_ms;
+  counters_.track_ms += frame.track_ms;
+  vo_ok_ = frame.track.ok();
+  if (vo_ok_) ++counters_.frames_tracked;
+  if (frame.measurement) {
+    in_flight_.push_back({t_ns + s_to_ns(options_.vision_latency_s), *frame.measurement});
+  }
+}
+
+// The filter's new outputs, carried to t_ns by the IMU.
+EstimatorOutput FlightLoop::estimate(TimeNs t_ns) {
+  for (const fusion::FusedState& f : fusion_.poll(true)) {
+    if ((f.flags & fusion::kFlagUpdated) != 0U) last_vision_update_ns_ = f.t_ns;
+    position_sigma_m_ = f.sigma.head<3>().maxCoeff();
+    predictor_.set_fused(f);
+  }
+  const auto predicted = predictor_.predict();
+  EstimatorOutput out;
+  out.health.estimate_valid =
+      predicted.has_value() && predicted->p_world.allFinite() && predicted->v_world.allFinite();
+  out.health.last_vision_update_ns = last_vision_update_ns_;
+  out.health.position_sigma_m = position_sigma_m_;
+  out.estimate = predicted.value_or(control::VehicleStateEstimate{});
+  out.estimate.t_ns = t_ns;
+  return out;
+}
+
+FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
+  const auto [e, health] = estimate(t_ns);
+  const control::SafetyDecision decision = supervisor_.update(
+      t_ns, e, health, scenario_.path.at(t_s), controller_.hover_thrust_estimate_N());
+  control::AttitudeThrustCommand command = decision.override_command
+                                               ? *decision.override_command
+                                               : controller_.update(e, decision.reference).command;
+  command = control::bound_command(command, options_.limits, controller_.hover_thrust_estimate_N())
+                .command;
+  watchdog_.submit(t_ns, command);
+  const control::WatchdogOutput w = watchdog_.output(t_ns);
+  const bool motors_off = w.motors_off || decision.motors_off;
+  output_.write(motors_off ? mapper_.motors_off() : mapper_.map(w.command), t_ns);
+
+  const sim::QuadrotorState& truth = vehicle_.state();
+  FlightSample s;
+  s.t_s = t_s;
+  s.p_true = truth.p_world;
+  s.p_ref = decision.reference.p_world;
+  s.p_est = e.p_world;
+  s.vo_ok = vo_ok_;
+  s.mode = decision.mode;
+  s.position_sigma_m = position_sigma_m_;
+  s.command = w.command;
+  s.crashed = truth.crashed;
+  return s;
+}
+
+FlightCounters FlightLoop::counters() const {
+  FlightCounters c = counters_;
+  c.fusion = fusion_.counters();
+  return c;
 }
 
 }  // namespace
@@ -104,141 +281,36 @@ FlightResult FlightSimulation::run(double duration_s,
   const auto wall_start = std::chrono::steady_clock::now();
   const FlightOptions& o = options_;
   const sim::Scene scene = sim::make_scene(scenario_.scene, o.seed);
-  const SE3 T_world_start = scene.T_world_start();
-
-  // The vehicle, hovering at the start pose, and its sensors.
-  const double dt_s = 1.0 / o.physics_rate_hz;
-  const TimeNs dt_ns = s_to_ns(dt_s);
-  sim::SimulatedVehicle vehicle(
-      o.vehicle, o.flight_controller,
-      sim::Quadrotor::hover_state(o.vehicle, T_world_start.translation(),
-                                  control::yaw_of(T_world_start.so3())),
-      o.physics_rate_hz);
-  sim::VehicleImuSimulator imu(o.imu_noise, o.seed);
-  StereoVision vision(scene, o.vision, o.seed);
-
-  // The on-board software. The filter starts at the known take-off pose (the world frame is
-  // defined there), at rest, with zero bias estimates.
-  fusion::FusionEngine fusion(o.fusion);
-  fusion::NominalState initial;
-  initial.t_ns = 0;
-  initial.p_world = vehicle.state().p_world;
-  initial.q_world_body = vehicle.state().R_world_body.unit_quaternion();
-  fusion.initialize(initial);
-  ImuForwardPredictor predictor(control::kGravity);
-  {
-    fusion::FusedState start;
-    start.state = initial;
-    predictor.set_fused(start);
-  }
-  control::PositionController controller(o.controller);
-  control::PwmMapper mapper(o.pwm);
-  control::SimulatedPwmOutput output(mapper.motors_off());
-  control::SafetySupervisor supervisor(o.safety);
-  control::CommandWatchdog watchdog(o.watchdog);
+  FlightLoop loop(scene, o, scenario_);
 
   FlightResult result;
   result.scenario = scenario_.name;
   result.settle_s = scenario_.settle_s;
+  const double dt_s = 1.0 / o.physics_rate_hz;
+  const TimeNs dt_ns = s_to_ns(dt_s);
   const auto control_every =
       static_cast<std::int64_t>(std::llround(o.physics_rate_hz / o.control_rate_hz));
+  const auto progress_every = static_cast<std::int64_t>(std::llround(o.physics_rate_hz));
   const auto ticks = static_cast<std::int64_t>(std::llround(duration_s * o.physics_rate_hz));
   result.samples.reserve(static_cast<std::size_t>(ticks / control_every + 1));
-  const double camera_period_s = 1.0 / o.camera_rate_hz;
-  std::int64_t next_frame = 0;  // index of the next camera frame
-  std::deque<InFlight> in_flight;
-  TimeNs last_vision_update_ns = 0;
-  bool vo_ok = false;
-  double position_sigma = 0.0;
-  control::SafetyDecision decision;
   std::optional<TimeNs> crash_ns;
-
   for (std::int64_t tick = 0; tick <= ticks; ++tick) {
     const TimeNs t_ns = tick * dt_ns;
     const double t_s = ns_to_s(t_ns);
-    const sim::QuadrotorState& truth = vehicle.state();
-
-    // Sensors: the IMU every tick, the cameras at their rate.
-    const io::ImuSample sample = imu.sample(truth);
-    fusion.add_imu(sample);
-    predictor.add_imu(sample);
-    if (t_s + 1e-9 >= static_cast<double>(next_frame) * camera_period_s) {
-      ++next_frame;
-      const bool off = o.vo_off_at_s >= 0.0 && t_s >= o.vo_off_at_s &&
-                       t_s < o.vo_off_at_s + o.vo_off_for_s;
-      if (off) {
-        ++result.counters.frames_off;
-        vo_ok = false;
-      } else {
-        const VisionFrame frame = vision.process(t_ns, SE3(truth.R_world_body, truth.p_world));
-        ++result.counters.frames;
-        result.counters.depth_fill_sum += frame.depth_fill;
-        result.counters.render_ms += frame.render_ms;
-        result.counters.match_ms += frame.match_ms;
-        result.counters.track_ms += frame.track_ms;
-        vo_ok = frame.track.ok();
-        if (vo_ok) ++result.counters.frames_tracked;
-        if (frame.measurement) {
-          in_flight.push_back({t_ns + s_to_ns(o.vision_latency_s), *frame.measurement});
-        }
-      }
-    }
-    while (!in_flight.empty() && in_flight.front().arrives_ns <= t_ns) {
-      fusion.add_relative_pose(in_flight.front().measurement);
-      in_flight.pop_front();
-    }
-
-    // On-board control at its rate.
+    loop.sense(t_ns, t_s);
     if (tick % control_every == 0) {
-      for (const fusion::FusedState& f : fusion.poll(true)) {
-        if ((f.flags & fusion::kFlagUpdated) != 0U) last_vision_update_ns = f.t_ns;
-        position_sigma = f.sigma.head<3>().maxCoeff();
-        predictor.set_fused(f);
-      }
-      const auto estimate = predictor.predict();
-      control::EstimatorHealth health;
-      health.estimate_valid = estimate.has_value() && estimate->p_world.allFinite() &&
-                              estimate->v_world.allFinite();
-      health.last_vision_update_ns = last_vision_update_ns;
-      health.position_sigma_m = position_sigma;
-      control::VehicleStateEstimate e = estimate.value_or(control::VehicleStateEstimate{});
-      e.t_ns = t_ns;
-      decision = supervisor.update(t_ns, e, health, scenario_.path.at(t_s),
-                                   controller.hover_thrust_estimate_N());
-      control::AttitudeThrustCommand command =
-          decision.override_command ? *decision.override_command
-                                    : controller.update(e, decision.reference).command;
-      command = control::bound_command(command, o.limits, controller.hover_thrust_estimate_N())
-                    .command;
-      watchdog.submit(t_ns, command);
-      const control::WatchdogOutput w = watchdog.output(t_ns);
-      const bool motors_off = w.motors_off || decision.motors_off;
-      output.write(motors_off ? mapper.motors_off() : mapper.map(w.command), t_ns);
-
-      FlightSample s;
-      s.t_s = t_s;
-      s.p_true = truth.p_world;
-      s.p_ref = decision.reference.p_world;
-      s.p_est = e.p_world;
-      s.vo_ok = vo_ok;
-      s.mode = decision.mode;
-      s.position_sigma_m = position_sigma;
-      s.command = w.command;
-      s.crashed = truth.crashed;
-      result.samples.push_back(s);
-      if (progress && tick % static_cast<std::int64_t>(std::llround(o.physics_rate_hz)) == 0) {
-        progress(s);
-      }
+      result.samples.push_back(loop.control_step(t_ns, t_s));
+      if (progress && tick % progress_every == 0) progress(result.samples.back());
     }
-    if (truth.crashed && !crash_ns) crash_ns = t_ns;
+    if (loop.truth().crashed && !crash_ns) crash_ns = t_ns;
     if (crash_ns && t_ns - *crash_ns > s_to_ns(1.0)) break;
-    vehicle.step(dt_s, output.latest());
+    loop.step_vehicle(dt_s);
   }
 
   result.crashed = crash_ns.has_value();
   result.duration_s = result.samples.empty() ? 0.0 : result.samples.back().t_s;
-  result.final_mode = std::string(control::to_string(supervisor.mode()));
-  result.counters.fusion = fusion.counters();
+  result.final_mode = std::string(control::to_string(loop.mode()));
+  result.counters = loop.counters();
   result.counters.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

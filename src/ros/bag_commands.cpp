@@ -18,6 +18,7 @@
 #include <iostream>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -139,6 +140,165 @@ std::vector<std::int64_t> image_stamps(rosbag::Bag& bag, const std::string& topi
   return stamps;
 }
 
+/// The colour and depth images of a bag, associated as `kestrel odometry` associates a TUM
+/// folder's lists, and the pair each associated message belongs to.
+struct BagPairs {
+  // Header stamps, in bag order.
+  std::vector<std::int64_t> rgb_t_ns, depth_t_ns;
+  // (rgb index, depth index), sorted by rgb index.
+  std::vector<std::pair<std::size_t, std::size_t>> pairs;
+  std::map<std::size_t, std::size_t> pair_of_rgb, pair_of_depth;
+};
+
+BagPairs pair_images(rosbag::Bag& bag, const BagOdometryArgs& args) {
+  BagPairs p;
+  p.rgb_t_ns = image_stamps(bag, args.rgb_topic);
+  p.depth_t_ns = image_stamps(bag, args.depth_topic);
+  p.pairs = associate_stamps(p.rgb_t_ns, p.depth_t_ns, kTumMaxAssociationDiffNs);
+  for (std::size_t k = 0; k < p.pairs.size(); ++k) {
+    p.pair_of_rgb[p.pairs[k].first] = k;
+    p.pair_of_depth[p.pairs[k].second] = k;
+  }
+  return p;
+}
+
+/// What the odometry made of a bag.
+struct BagRun {
+  std::vector<TrajectoryPose> trajectory;
+  std::vector<double> processing_ms;       // of every tracked frame but the first
+  std::vector<std::string> failure_lines;  // the first 20
+  std::set<std::size_t> dropped;           // pairs with an image that could not be converted
+  std::size_t failures = 0, keyframes = 0, processed = 0;
+};
+
+/// Tracks the pairs in colour-time order as their converted images come in, in any order: a
+/// pair waits until both halves are in and every earlier pair is tracked or dropped.
+class PairTracker {
+ public:
+  PairTracker(OdometryCore& core, const BagPairs& pairs) : core_(core), pairs_(pairs) {
+    run_.trajectory.reserve(pairs.pairs.size());
+  }
+
+  void add(std::size_t pair, bool is_rgb, const cv::Mat& image) {
+    (is_rgb ? rgb_ready_ : depth_ready_)[pair] = image;
+  }
+  void drop(std::size_t pair) { run_.dropped.insert(pair); }
+  /// Tracks the pairs that can be, in order.
+  void track_ready();
+  [[nodiscard]] const BagRun& run() const { return run_; }
+
+ private:
+  void record(std::int64_t t_ns, const OdometryOutput& out);
+
+  OdometryCore& core_;
+  const BagPairs& pairs_;
+  std::map<std::size_t, cv::Mat> rgb_ready_, depth_ready_;
+  std::size_t next_ = 0;  // the next pair to track
+  BagRun run_;
+};
+
+void PairTracker::track_ready() {
+  while (next_ < pairs_.pairs.size()) {
+    if (run_.dropped.count(next_) != 0) {
+      rgb_ready_.erase(next_);
+      depth_ready_.erase(next_);
+      ++next_;
+      continue;
+    }
+    const auto rgb = rgb_ready_.find(next_);
+    const auto depth = depth_ready_.find(next_);
+    if (rgb == rgb_ready_.end() || depth == depth_ready_.end()) return;
+    const std::int64_t t_ns = pairs_.rgb_t_ns[pairs_.pairs[next_].first];
+    const OdometryOutput out = core_.track_rgbd(t_ns, rgb->second, depth->second,
+                                                pairs_.depth_t_ns[pairs_.pairs[next_].second]);
+    rgb_ready_.erase(rgb);
+    depth_ready_.erase(depth);
+    record(t_ns, out);
+    ++next_;
+  }
+}
+
+// A frame the core refuses (invalid input) is reported and not counted.
+void PairTracker::record(std::int64_t t_ns, const OdometryOutput& out) {
+  if (out.invalid_input) {
+    std::cerr << "kestrel_ros bag: warning: frame at t=" << format_seconds(t_ns)
+              << " dropped: " << out.failure << "\n";
+    return;
+  }
+  if (run_.processed > 0) run_.processing_ms.push_back(out.processing_ms);
+  if (!out.ok) {
+    ++run_.failures;
+    if (run_.failure_lines.size() < 20) {
+      run_.failure_lines.push_back("frame " + std::to_string(run_.processed) +
+                                   " (t=" + format_seconds(t_ns) + "): " + out.failure);
+    }
+  }
+  run_.keyframes += out.new_keyframe ? 1 : 0;
+  run_.trajectory.push_back({t_ns, out.T_odom_child});
+  ++run_.processed;
+  if (run_.processed % 100 == 0) {
+    std::cerr << "kestrel_ros bag: " << run_.processed << "/" << pairs_.pairs.size() << " frames\n";
+  }
+}
+
+/// The message's image converted for the odometry; none, with a warning, if it is not an
+/// image or has an encoding the odometry cannot take.
+std::optional<cv::Mat> converted_image(const rosbag::MessageInstance& m, std::size_t index,
+                                       bool is_rgb, double depth_unit_m) {
+  const auto image = m.instantiate<sensor_msgs::Image>();
+  if (!image) {
+    std::cerr << "kestrel_ros bag: warning: " << m.getTopic() << ": message " << index
+              << " is not a sensor_msgs/Image; frame dropped\n";
+    return std::nullopt;
+  }
+  const ImageConversion c = is_rgb ? intensity_image(*image) : depth_image(*image, depth_unit_m);
+  if (!c.ok()) {
+    std::cerr << "kestrel_ros bag: warning: " << m.getTopic()
+              << " at t=" << format_seconds(to_ns(image->header.stamp)) << ": " << c.error
+              << "; frame dropped\n";
+    return std::nullopt;
+  }
+  return c.image;
+}
+
+/// Reads the images in bag order and tracks each pair as soon as both of its halves are in.
+void track_bag_images(rosbag::Bag& bag, const BagOdometryArgs& args, const BagPairs& pairs,
+                      PairTracker& tracker) {
+  std::size_t rgb_index = 0, depth_index = 0;
+  rosbag::View view(bag,
+                    rosbag::TopicQuery(std::vector<std::string>{args.rgb_topic, args.depth_topic}));
+  for (const rosbag::MessageInstance& m : view) {
+    const bool is_rgb = m.getTopic() == args.rgb_topic;
+    const std::size_t index = is_rgb ? rgb_index++ : depth_index++;
+    const auto& pair_of = is_rgb ? pairs.pair_of_rgb : pairs.pair_of_depth;
+    const auto it = pair_of.find(index);
+    if (it == pair_of.end()) continue;  // not associated
+    if (const auto image = converted_image(m, index, is_rgb, args.depth_unit_m)) {
+      tracker.add(it->second, is_rgb, *image);
+    } else {
+      tracker.drop(it->second);
+    }
+    tracker.track_ready();
+  }
+}
+
+/// Writes the trajectory and reports the run: the result on stdout, then on stderr the
+/// failures, the core's statistics and, as the last line, the SUMMARY line.
+void report_bag_run(const BagOdometryArgs& args, const BagRun& run, const OdometryCore& core) {
+  if (run.trajectory.empty()) {
+    throw bag_error(args.bag, "no frame could be used (every pair had an unusable image)");
+  }
+  write_tum_trajectory(args.out, run.trajectory, kBagCommand, args.force);
+  std::cout << "wrote " << args.out << " (" << run.trajectory.size() << " poses, " << run.keyframes
+            << " keyframes, " << run.failures << " failures, " << run.dropped.size()
+            << " frames dropped)\n";
+  for (const auto& line : run.failure_lines) std::cerr << "failure: " << line << "\n";
+  std::cout.flush();
+  std::cerr << "kestrel_ros bag: " << core.statistics() << "\n";
+  std::cerr << summary_line(run.processing_ms, run.processed, run.failures)
+            << std::endl;  // the LAST stderr line
+}
+
 }  // namespace
 
 void run_bag_odometry(const BagOdometryArgs& args) {
@@ -158,115 +318,22 @@ void run_bag_odometry(const BagOdometryArgs& args) {
   options.tracker_options_file = args.config;
   OdometryCore core(options, camera);
 
-  const std::vector<std::int64_t> rgb_t = image_stamps(bag, args.rgb_topic);
-  const std::vector<std::int64_t> depth_t = image_stamps(bag, args.depth_topic);
-  const auto pairs = associate_stamps(rgb_t, depth_t, kTumMaxAssociationDiffNs);
-  std::cerr << "kestrel_ros bag: bag=" << args.bag << " " << args.rgb_topic << ": " << rgb_t.size()
-            << " images, " << args.depth_topic << ": " << depth_t.size()
-            << " images, frames=" << pairs.size()
-            << " (unmatched rgb: " << rgb_t.size() - pairs.size() << ")\n"
+  const BagPairs pairs = pair_images(bag, args);
+  std::cerr << "kestrel_ros bag: bag=" << args.bag << " " << args.rgb_topic << ": "
+            << pairs.rgb_t_ns.size() << " images, " << args.depth_topic << ": "
+            << pairs.depth_t_ns.size() << " images, frames=" << pairs.pairs.size()
+            << " (unmatched rgb: " << pairs.rgb_t_ns.size() - pairs.pairs.size() << ")\n"
             << "camera (" << camera_source << "): " << describe(camera) << "\n"
             << core.describe();
-  if (pairs.empty()) {
+  if (pairs.pairs.empty()) {
     throw bag_error(args.bag, "no colour/depth image pairs within 20 ms on " + args.rgb_topic +
                                   " and " + args.depth_topic);
   }
 
-  // Which pair each message belongs to.
-  std::map<std::size_t, std::size_t> pair_of_rgb, pair_of_depth;
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    pair_of_rgb[pairs[k].first] = k;
-    pair_of_depth[pairs[k].second] = k;
-  }
-  std::map<std::size_t, cv::Mat> rgb_ready, depth_ready;
-  std::set<std::size_t> dropped;  // pairs with an image that could not be converted
-  std::vector<TrajectoryPose> trajectory;
-  trajectory.reserve(pairs.size());
-  std::vector<double> ms;
-  std::vector<std::string> failure_lines;
-  std::size_t failures = 0, keyframes = 0, next = 0, processed = 0;
-
-  auto process_ready = [&] {
-    while (next < pairs.size()) {
-      if (dropped.count(next) != 0) {
-        rgb_ready.erase(next);
-        depth_ready.erase(next);
-        ++next;
-        continue;
-      }
-      const auto rgb = rgb_ready.find(next);
-      const auto depth = depth_ready.find(next);
-      if (rgb == rgb_ready.end() || depth == depth_ready.end()) return;
-      const std::int64_t t_ns = rgb_t[pairs[next].first];
-      const OdometryOutput out =
-          core.track_rgbd(t_ns, rgb->second, depth->second, depth_t[pairs[next].second]);
-      rgb_ready.erase(rgb);
-      depth_ready.erase(depth);
-      if (out.invalid_input) {
-        std::cerr << "kestrel_ros bag: warning: frame at t=" << format_seconds(t_ns)
-                  << " dropped: " << out.failure << "\n";
-      } else {
-        if (processed > 0) ms.push_back(out.processing_ms);
-        if (!out.ok) {
-          ++failures;
-          if (failure_lines.size() < 20) {
-            failure_lines.push_back("frame " + std::to_string(processed) +
-                                    " (t=" + format_seconds(t_ns) + "): " + out.failure);
-          }
-        }
-        keyframes += out.new_keyframe ? 1 : 0;
-        trajectory.push_back({t_ns, out.T_odom_child});
-        ++processed;
-        if (processed % 100 == 0) {
-          std::cerr << "kestrel_ros bag: " << processed << "/" << pairs.size() << " frames\n";
-        }
-      }
-      ++next;
-    }
-  };
-
-  std::size_t rgb_index = 0, depth_index = 0;
-  rosbag::View view(bag,
-                    rosbag::TopicQuery(std::vector<std::string>{args.rgb_topic, args.depth_topic}));
-  for (const rosbag::MessageInstance& m : view) {
-    const bool is_rgb = m.getTopic() == args.rgb_topic;
-    const std::size_t index = is_rgb ? rgb_index++ : depth_index++;
-    const auto& pair_of = is_rgb ? pair_of_rgb : pair_of_depth;
-    const auto it = pair_of.find(index);
-    if (it == pair_of.end()) continue;  // not associated
-    const auto image = m.instantiate<sensor_msgs::Image>();
-    if (!image) {
-      std::cerr << "kestrel_ros bag: warning: " << m.getTopic() << ": message " << index
-                << " is not a sensor_msgs/Image; frame dropped\n";
-      dropped.insert(it->second);
-      process_ready();
-      continue;
-    }
-    const ImageConversion c =
-        is_rgb ? intensity_image(*image) : depth_image(*image, args.depth_unit_m);
-    if (!c.ok()) {
-      std::cerr << "kestrel_ros bag: warning: " << m.getTopic()
-                << " at t=" << format_seconds(to_ns(image->header.stamp)) << ": " << c.error
-                << "; frame dropped\n";
-      dropped.insert(it->second);
-    } else {
-      (is_rgb ? rgb_ready : depth_ready)[it->second] = c.image;
-    }
-    process_ready();
-  }
+  PairTracker tracker(core, pairs);
+  track_bag_images(bag, args, pairs, tracker);
   bag.close();
-
-  if (trajectory.empty()) {
-    throw bag_error(args.bag, "no frame could be used (every pair had an unusable image)");
-  }
-  write_tum_trajectory(args.out, trajectory, kBagCommand, args.force);
-  std::cout << "wrote " << args.out << " (" << trajectory.size() << " poses, " << keyframes
-            << " keyframes, " << failures << " failures, " << dropped.size()
-            << " frames dropped)\n";
-  for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
-  std::cout.flush();
-  std::cerr << "kestrel_ros bag: " << core.statistics() << "\n";
-  std::cerr << summary_line(ms, processed, failures) << std::endl;  // the LAST stderr line
+  report_bag_run(args, tracker.run(), core);
 }
 
 void run_make_bag(const MakeBagArgs& args) {

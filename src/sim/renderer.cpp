@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <future>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 
@@ -60,6 +61,63 @@ int clip_near(const std::array<Eigen::Vector3d, 4>& in, double near,
     }
   }
   return n;
+}
+
+/// Whether a 4-neighbour of pixel (u, v) shows a different face (or the background).
+inline bool on_face_boundary(const std::vector<int>& face_id, int u, int v, int w, int h) {
+  const std::size_t idx =
+      static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
+  const int id = face_id[idx];
+  return (u > 0 && face_id[idx - 1] != id) || (u + 1 < w && face_id[idx + 1] != id) ||
+         (v > 0 && face_id[idx - static_cast<std::size_t>(w)] != id) ||
+         (v + 1 < h && face_id[idx + static_cast<std::size_t>(w)] != id);
+}
+
+/// The distinct faces seen in the 3x3 neighbourhood of pixel (u, v), in scan order; returns
+/// their number.
+std::size_t faces_around(const std::vector<int>& face_id, int u, int v, int w, int h,
+                         std::array<int, 9>& faces) {
+  std::size_t n = 0;
+  for (int dv = -1; dv <= 1; ++dv) {
+    for (int du = -1; du <= 1; ++du) {
+      const int uu = u + du, vv = v + dv;
+      if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
+      const int c = face_id[static_cast<std::size_t>(vv) * static_cast<std::size_t>(w) +
+                            static_cast<std::size_t>(uu)];
+      if (c < 0) continue;
+      if (std::find(faces.begin(), faces.begin() + n, c) == faces.begin() + n) faces[n++] = c;
+    }
+  }
+  return n;
+}
+
+/// The nearest face a ray meets and its inverse depth; face == nullptr: none (background).
+struct FaceHit {
+  const Renderer::FaceSetup* face = nullptr;
+  double iz = 0.0;
+};
+
+/// The nearest of `faces` (indices into `setups`) that the ray through the sub-pixel point
+/// (us, vs) meets within [near, far], given as inverse depths.
+FaceHit nearest_face(const std::vector<Renderer::FaceSetup>& setups, std::span<const int> faces,
+                     double us, double vs, double iz_near, double iz_far) {
+  FaceHit best;
+  for (const int c : faces) {
+    const Renderer::FaceSetup& fs = setups[static_cast<std::size_t>(c)];
+    const double iz = fs.iz0 + fs.izu * us + fs.izv * vs;
+    if (!(iz > best.iz) || iz < iz_far || iz > iz_near) continue;
+    if (fs.bounded) {
+      const double z = 1.0 / iz;
+      const double s = z * (fs.s0 + fs.su * us + fs.sv * vs) - fs.s_off;
+      const double t = z * (fs.t0 + fs.tu * us + fs.tv * vs) - fs.t_off;
+      if (s < -kEdgeMargin || s > fs.extent_s + kEdgeMargin || t < -kEdgeMargin ||
+          t > fs.extent_t + kEdgeMargin) {
+        continue;
+      }
+    }
+    best = {&fs, iz};
+  }
+  return best;
 }
 
 }  // namespace
@@ -261,28 +319,37 @@ void Renderer::rasterize() {
   }
 }
 
-void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame) {
-  const int w = camera_.width();
-  const int h = camera_.height();
-  const double fx = camera_.fx(), fy = camera_.fy(), cx = camera_.cx(), cy = camera_.cy();
-  const Eigen::Matrix3d R_wc = T_world_cam.rotation_matrix();
-  const Eigen::Vector3d& t_wc = T_world_cam.translation();
-  const ShadingContext context{scene, T_world_cam};
-  const float ambient = scene.ambient();
-  const bool has_lights = !scene.lights().empty() || !rig_lights_.empty();
-  const bool mip = options_.mipmapping;
-  // The angle of incidence only matters to the grazing-angle dropout of the noise model.
-  const bool need_incidence = options_.noise.max_incidence_deg < 90.0;
+/// One frame's shading constants (camera, pose, lights, edge sampling) and the per-sample steps
+/// that both shading passes share; defined in the class so that they inline into the loops.
+struct Renderer::Shading {
+  Shading(const Renderer& renderer, const Scene& scene, const SE3& T_world_cam)
+      : rig_lights(renderer.rig_lights_),
+        context{scene, T_world_cam},
+        R_wc(T_world_cam.rotation_matrix()),
+        t_wc(T_world_cam.translation()),
+        cx(renderer.camera_.cx()),
+        cy(renderer.camera_.cy()),
+        inv_fx(1.0 / renderer.camera_.fx()),
+        inv_fy(1.0 / renderer.camera_.fy()),
+        ambient(scene.ambient()),
+        has_lights(!scene.lights().empty() || !renderer.rig_lights_.empty()),
+        mipmapping(renderer.options_.mipmapping),
+        need_incidence(renderer.options_.noise.max_incidence_deg < 90.0),
+        edge_k(renderer.options_.edge_supersampling),
+        edge_lod_bias(-std::log2(static_cast<float>(edge_k))),
+        iz_near(1.0 / renderer.options_.near_m),
+        iz_far(1.0 / renderer.options_.far_m) {}
 
-  // Albedo x texture of face `fs` seen through (u, v) at depth z (z = 1 / inverse depth).
-  auto surface_color = [&](const FaceSetup& fs, double u, double v, double z, float lod_bias) {
+  /// Albedo x texture of face `fs` seen through (u, v) at depth z (z = 1 / inverse depth).
+  [[nodiscard]] ColorBgr surface_color(const FaceSetup& fs, double u, double v, double z,
+                                       float lod_bias) const {
     const double sr = fs.s0 + fs.su * u + fs.sv * v;
     const double tr = fs.t0 + fs.tu * u + fs.tv * v;
     const double zs = z * sr;
     const double zt = z * tr;
     const Texture& tex = *fs.face->material.texture;
     ColorBgr color;
-    if (mip) {
+    if (mipmapping) {
       // Footprint of one pixel on the surface: derivatives of (s, t) = (z sr, z tr) with
       // z = 1 / iz, e.g. ds/du = z (su - z sr izu); isotropic (the longer axis), as in GL.
       const double dsdu = z * (fs.su - zs * fs.izu), dtdu = z * (fs.tu - zt * fs.izu);
@@ -297,30 +364,59 @@ void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& 
       color = tex.sample(zs - fs.s_off, zt - fs.t_off);
     }
     return color.mul(fs.face->material.albedo);
-  };
-  const double inv_fx = 1.0 / fx, inv_fy = 1.0 / fy;
-  auto surface_point = [&](const FaceSetup& fs, double u, double v, double z) {
+  }
+
+  /// The world point of face `fs` seen through (u, v) at depth z, as the lights take it.
+  [[nodiscard]] SurfacePoint surface_point(const FaceSetup& fs, double u, double v,
+                                           double z) const {
     const Eigen::Vector3d p_cam(z * (u - cx) * inv_fx, z * (v - cy) * inv_fy, z);
     return SurfacePoint{R_wc * p_cam + t_wc, fs.n_world_facing, fs.face->primitive};
-  };
-  // Adds every light's irradiance at `points` to `irradiance`.
-  auto light_points = [&](std::span<const SurfacePoint> points, std::span<ColorBgr> irradiance) {
-    for (const auto& light : scene.lights()) light->accumulate(points, irradiance, context);
-    for (const auto& light : rig_lights_) light->accumulate(points, irradiance, context);
-  };
+  }
 
-  // Pass 1: every pixel at its centre ray; lights are evaluated once per row, in a batch.
+  /// Adds every light's irradiance at `points` to `irradiance`.
+  void light(std::span<const SurfacePoint> points, std::span<ColorBgr> irradiance) const {
+    for (const auto& l : context.scene.lights()) l->accumulate(points, irradiance, context);
+    for (const auto& l : rig_lights) l->accumulate(points, irradiance, context);
+  }
+
+  const std::vector<std::shared_ptr<const LightSource>>& rig_lights;
+  ShadingContext context;
+  Eigen::Matrix3d R_wc;
+  Eigen::Vector3d t_wc;
+  double cx, cy, inv_fx, inv_fy;
+  float ambient;
+  bool has_lights;
+  bool mipmapping;
+  // The angle of incidence only matters to the grazing-angle dropout of the noise model.
+  bool need_incidence;
+  int edge_k;           // k x k samples per edge pixel; 1: no supersampling
+  float edge_lod_bias;  // the samples' footprint is 1/k of a pixel's
+  double iz_near, iz_far;
+};
+
+void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame) {
+  const Shading shading(*this, scene, T_world_cam);
   // One row of points, or the k x k (<= 64) samples of an edge pixel.
+  const int w = camera_.width();
   const auto batch = static_cast<std::size_t>(std::max(w, 64));
   row_points_.resize(batch);
   row_irradiance_.resize(batch);
   row_columns_.resize(static_cast<std::size_t>(w));
+  shade_pixel_centres(shading);
+  shade_edge_pixels(shading);
+  write_frame(frame);
+}
+
+// Every pixel at its centre ray; the lights are evaluated once per row, in a batch.
+void Renderer::shade_pixel_centres(const Shading& shading) {
+  const int w = camera_.width();
+  const int h = camera_.height();
   for (int v = 0; v < h; ++v) {
     const std::size_t row = static_cast<std::size_t>(v) * static_cast<std::size_t>(w);
     auto* rad = radiance_.ptr<cv::Vec3f>(v);
     auto* depth = exact_depth_.ptr<float>(v);
     auto* cosi = cos_incidence_.ptr<float>(v);
-    const double y = (v - cy) * inv_fy;
+    const double y = (v - shading.cy) * shading.inv_fy;
     std::size_t n_lit = 0;
     for (int u = 0; u < w; ++u) {
       const int id = face_id_[row + static_cast<std::size_t>(u)];
@@ -334,113 +430,86 @@ void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& 
       const double iz = inv_depth_[row + static_cast<std::size_t>(u)];
       const double z = 1.0 / iz;
       depth[u] = static_cast<float>(z);
-      if (need_incidence) {
+      if (shading.need_incidence) {
         // |cos| between the ray r = (x, y, 1) and the normal: n.r = iz * d_cam.
-        const double x = (u - cx) * inv_fx;
+        const double x = (u - shading.cx) * shading.inv_fx;
         cosi[u] = static_cast<float>(std::abs(iz * fs.d_cam) / std::sqrt(x * x + y * y + 1.0));
       }
-      rad[u] = surface_color(fs, u, v, z, 0.0F);
-      if (has_lights) {
-        row_points_[n_lit] = surface_point(fs, u, v, z);
-        row_irradiance_[n_lit] = ColorBgr(ambient, ambient, ambient);
+      rad[u] = shading.surface_color(fs, u, v, z, 0.0F);
+      if (shading.has_lights) {
+        row_points_[n_lit] = shading.surface_point(fs, u, v, z);
+        row_irradiance_[n_lit] = ColorBgr(shading.ambient, shading.ambient, shading.ambient);
         row_columns_[n_lit] = u;
         ++n_lit;
       } else {
-        rad[u] *= ambient;
+        rad[u] *= shading.ambient;
       }
     }
     if (n_lit > 0) {
-      light_points({row_points_.data(), n_lit}, {row_irradiance_.data(), n_lit});
+      shading.light({row_points_.data(), n_lit}, {row_irradiance_.data(), n_lit});
       for (std::size_t i = 0; i < n_lit; ++i) {
         cv::Vec3f& r = rad[row_columns_[i]];
         r = r.mul(row_irradiance_[i]);
       }
     }
   }
+}
 
-  // Pass 2: pixels on a boundary (a 4-neighbour shows another face) get k x k colour samples,
-  // each taking the nearest of the faces seen in the 3x3 neighbourhood.
+// Pixels on a boundary (a 4-neighbour shows another face) get k x k colour samples, each
+// taking the nearest of the faces seen in the 3x3 neighbourhood.
+void Renderer::shade_edge_pixels(const Shading& shading) {
   edge_pixels_ = 0;
-  const int k = options_.edge_supersampling;
-  if (k > 1) {
-    const double iz_near = 1.0 / options_.near_m;
-    const double iz_far = 1.0 / options_.far_m;
-    const float lod_bias = -std::log2(static_cast<float>(k));
-    std::array<int, 9> candidates{};
-    std::array<ColorBgr, 64> sample_color;  // k <= 8
-    for (int v = 0; v < h; ++v) {
-      for (int u = 0; u < w; ++u) {
-        const std::size_t idx =
-            static_cast<std::size_t>(v) * static_cast<std::size_t>(w) + static_cast<std::size_t>(u);
-        const int id = face_id_[idx];
-        const bool edge = (u > 0 && face_id_[idx - 1] != id) ||
-                          (u + 1 < w && face_id_[idx + 1] != id) ||
-                          (v > 0 && face_id_[idx - static_cast<std::size_t>(w)] != id) ||
-                          (v + 1 < h && face_id_[idx + static_cast<std::size_t>(w)] != id);
-        if (!edge) continue;
-        ++edge_pixels_;
-        int n_candidates = 0;
-        for (int dv = -1; dv <= 1; ++dv) {
-          for (int du = -1; du <= 1; ++du) {
-            const int uu = u + du, vv = v + dv;
-            if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
-            const int c = face_id_[static_cast<std::size_t>(vv) * static_cast<std::size_t>(w) +
-                                   static_cast<std::size_t>(uu)];
-            if (c < 0) continue;
-            if (std::find(candidates.begin(), candidates.begin() + n_candidates, c) ==
-                candidates.begin() + n_candidates) {
-              candidates[static_cast<std::size_t>(n_candidates++)] = c;
-            }
-          }
-        }
-        std::size_t n_samples = 0;
-        for (int j = 0; j < k; ++j) {
-          const double vs = v + (j + 0.5) / k - 0.5;
-          for (int i = 0; i < k; ++i) {
-            const double us = u + (i + 0.5) / k - 0.5;
-            double best_iz = 0.0;
-            const FaceSetup* best = nullptr;
-            for (int c = 0; c < n_candidates; ++c) {
-              const FaceSetup& fs =
-                  setups_[static_cast<std::size_t>(candidates[static_cast<std::size_t>(c)])];
-              const double iz = fs.iz0 + fs.izu * us + fs.izv * vs;
-              if (!(iz > best_iz) || iz < iz_far || iz > iz_near) continue;
-              if (fs.bounded) {
-                const double z = 1.0 / iz;
-                const double s = z * (fs.s0 + fs.su * us + fs.sv * vs) - fs.s_off;
-                const double t = z * (fs.t0 + fs.tu * us + fs.tv * vs) - fs.t_off;
-                if (s < -kEdgeMargin || s > fs.extent_s + kEdgeMargin || t < -kEdgeMargin ||
-                    t > fs.extent_t + kEdgeMargin) {
-                  continue;
-                }
-              }
-              best_iz = iz;
-              best = &fs;
-            }
-            if (best == nullptr) continue;  // background: black
-            const double z = 1.0 / best_iz;
-            sample_color[n_samples] = surface_color(*best, us, vs, z, lod_bias);
-            if (has_lights) {
-              row_points_[n_samples] = surface_point(*best, us, vs, z);
-              row_irradiance_[n_samples] = ColorBgr(ambient, ambient, ambient);
-            }
-            ++n_samples;
-          }
-        }
-        // The lights see the pixel's samples in one batch.
-        if (has_lights && n_samples > 0) {
-          light_points({row_points_.data(), n_samples}, {row_irradiance_.data(), n_samples});
-        }
-        ColorBgr sum(0.0F, 0.0F, 0.0F);
-        for (std::size_t i = 0; i < n_samples; ++i) {
-          sum += has_lights ? sample_color[i].mul(row_irradiance_[i]) : sample_color[i] * ambient;
-        }
-        radiance_.at<cv::Vec3f>(v, u) = sum * (1.0F / static_cast<float>(k * k));
-      }
+  if (shading.edge_k <= 1) return;
+  const int w = camera_.width();
+  const int h = camera_.height();
+  std::array<int, 9> faces{};
+  std::array<ColorBgr, 64> sample_color;  // k <= 8
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      if (!on_face_boundary(face_id_, u, v, w, h)) continue;
+      ++edge_pixels_;
+      const std::size_t n_faces = faces_around(face_id_, u, v, w, h, faces);
+      radiance_.at<cv::Vec3f>(v, u) =
+          supersample_pixel(shading, u, v, {faces.data(), n_faces}, sample_color);
     }
   }
+}
 
-  // Sensor noise, then the output images.
+ColorBgr Renderer::supersample_pixel(const Shading& shading, int u, int v,
+                                     std::span<const int> faces, std::span<ColorBgr> sample_color) {
+  const int k = shading.edge_k;
+  std::size_t n_samples = 0;
+  for (int j = 0; j < k; ++j) {
+    const double vs = v + (j + 0.5) / k - 0.5;
+    for (int i = 0; i < k; ++i) {
+      const double us = u + (i + 0.5) / k - 0.5;
+      const FaceHit hit = nearest_face(setups_, faces, us, vs, shading.iz_near, shading.iz_far);
+      if (hit.face == nullptr) continue;  // background: black
+      const double z = 1.0 / hit.iz;
+      sample_color[n_samples] = shading.surface_color(*hit.face, us, vs, z, shading.edge_lod_bias);
+      if (shading.has_lights) {
+        row_points_[n_samples] = shading.surface_point(*hit.face, us, vs, z);
+        row_irradiance_[n_samples] = ColorBgr(shading.ambient, shading.ambient, shading.ambient);
+      }
+      ++n_samples;
+    }
+  }
+  // The lights see the pixel's samples in one batch.
+  if (shading.has_lights && n_samples > 0) {
+    shading.light({row_points_.data(), n_samples}, {row_irradiance_.data(), n_samples});
+  }
+  ColorBgr sum(0.0F, 0.0F, 0.0F);
+  for (std::size_t i = 0; i < n_samples; ++i) {
+    sum += shading.has_lights ? sample_color[i].mul(row_irradiance_[i])
+                              : sample_color[i] * shading.ambient;
+  }
+  return sum * (1.0F / static_cast<float>(k * k));
+}
+
+// Sensor noise, then the output images.
+void Renderer::write_frame(RenderedFrame& frame) {
+  const int w = camera_.width();
+  const int h = camera_.height();
   frame.depth_m.create(h, w, CV_32F);
   exact_depth_.copyTo(frame.depth_m);
   const SensorNoiseOptions& no = noise_.options();

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,15 @@ class Renderer {
   void setup_faces(const Scene& scene, const SE3& T_world_cam);
   void rasterize();
   void shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame);
+  // The steps of shade(), with one frame's shading constants (renderer.cpp).
+  struct Shading;
+  void shade_pixel_centres(const Shading& shading);
+  void shade_edge_pixels(const Shading& shading);
+  /// The k x k supersampled colour of edge pixel (u, v), among the faces around it.
+  [[nodiscard]] ColorBgr supersample_pixel(const Shading& shading, int u, int v,
+                                           std::span<const int> faces,
+                                           std::span<ColorBgr> sample_color);
+  void write_frame(RenderedFrame& frame);
 
   PinholeCamera camera_;
   RenderOptions options_;
