@@ -652,6 +652,355 @@ struct AlignOutcome {
 
 }  // namespace
 
+// ---------------------------------------------------------------------------------------
+// One pyramid level of the alignment: robust inverse-compositional Gauss-Newton.
+namespace {
+
+// The estimate carried from level to level: the pose and the gain/bias illumination model
+// (thesis 3.9).
+struct Estimate {
+  SE3 T_cur_ref;
+  double alpha = 1.0, beta = 0.0;
+};
+
+enum class LevelEnd {
+  kConverged,       ///< the step (or its change) fell below tolerance, or the cost rose
+  kIterationsUsed,  ///< max iterations, or a step left the image and was undone
+  kFailed,          ///< no overlap or singular normal equations: the result says which
+};
+
+// What a step's robust cost says about it (DirectTrackerOptions::stop_on_cost_increase).
+enum class StepCheck { kAccepted, kHalved, kRejected };
+
+// The level whose photometric figures the health checks judge (AlignTerms::fallback_checks).
+struct HealthLevel {
+  double sigma = 0.0;
+  int inliers = 0, points = 1, level = 0;
+  bool passed = false;
+};
+
+// Gauss-Newton on one level (thesis 3.6-3.10): photometric residuals with gain/bias and, when
+// `geometric`, point-to-plane residuals, each with its own robust Tukey scale (MAD, thesis eq.
+// 3.40) frozen once it settles; weights carry 1/sigma^2 so that the two kinds combine as
+// normalised residuals and H^-1 is the covariance. A step that raises the robust cost is halved
+// (up to 3 times: far from the optimum Gauss-Newton overshoots); if it still does, the level
+// ends at the previous estimate (the noise floor is reached).
+class LevelSolver {
+ public:
+  LevelSolver(DirectTracker::Impl& m, const DirectTrackerOptions& o, int level, bool geometric,
+              Estimate& estimate, TrackResult& result)
+      : m_(m),
+        o_(o),
+        L_(m.ref[static_cast<std::size_t>(level)]),
+        level_(level),
+        finest_(level == o.finest_level),
+        geo_(geometric && o.depth_residual_weight > 0.0 && L_.normal_count >= o.min_points),
+        cur_(m.pyramid.level(level)),
+        cur_depth_(geo_ ? &m.depth_pyramid.level(level) : nullptr),
+        params_(o.estimate_gain_bias ? 8 : 6),
+        c_(static_cast<float>(o.tukey_c)),
+        est_(estimate),
+        res_(result),
+        prev_(estimate) {}
+
+  LevelEnd run() {
+    pad_buffers();
+    const int max_iter = (level_ == 0) ? o_.max_iterations_finest : o_.max_iterations_coarse;
+    const kernels::Sampling sampling = level_sampling(o_, finest_);
+    for (int it = 0; it < max_iter; ++it) {
+      evaluate(sampling);
+      if (inside_ < o_.min_points) {
+        if (it == 0) return fail_no_overlap();
+        restore_previous();  // the last step left the image: undo it and stop this level
+        return LevelEnd::kIterationsUsed;
+      }
+      if (it > 0 && o_.stop_on_cost_increase) {
+        const StepCheck check = check_step();
+        if (check == StepCheck::kHalved) continue;
+        if (check == StepCheck::kRejected) {
+          restore_previous();
+          return LevelEnd::kConverged;
+        }
+      }
+      halvings_ = 0;
+      update_scales(it);
+      const double cost = weigh();
+      if (!solve_and_step(cost)) return LevelEnd::kFailed;
+      if (step_converged()) return LevelEnd::kConverged;
+    }
+    return LevelEnd::kIterationsUsed;
+  }
+
+  [[nodiscard]] const LevelStats& stats() const { return stats_; }
+  [[nodiscard]] bool geometric() const { return geo_; }
+  [[nodiscard]] double geo_sigma() const { return geo_sigma_; }
+  [[nodiscard]] int geo_count() const { return geo_count_; }
+
+ private:
+  // The SIMD kernels read whole lanes: the padding past the last point weighs nothing.
+  void pad_buffers() {
+    const int n = L_.count;
+    for (int i = n; i < pad_to_lanes(n); ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      m_.weight[k] = 0.0F;
+      m_.residual[k] = 0.0F;
+      m_.geo_weight[k] = 0.0F;
+      m_.geo_residual[k] = 0.0F;
+    }
+  }
+
+  void evaluate(kernels::Sampling sampling) {
+    inside_ =
+        TrackerAccess::warp_residuals(m_, L_, cur_, est_.T_cur_ref, static_cast<float>(est_.alpha),
+                                      static_cast<float>(est_.beta), sampling);
+    if (geo_) {
+      geo_count_ =
+          TrackerAccess::warp_geometric(m_, L_, *cur_depth_, est_.T_cur_ref,
+                                        static_cast<float>(o_.depth_residual_max_relative_spread));
+    }
+    ++res_.iterations;
+  }
+
+  LevelEnd fail_no_overlap() {
+    res_.failure = TrackFailure::kNoOverlap;
+    res_.failure_detail = std::to_string(inside_) + " of " + std::to_string(L_.count) +
+                          " reference points land in the image on level " + std::to_string(level_);
+    res_.overlap = static_cast<double>(inside_) / L_.count;
+    return LevelEnd::kFailed;
+  }
+
+  // Back to the estimate before the last step; `stats_` still describe it (they are updated
+  // only after a step is accepted).
+  void restore_previous() {
+    est_ = prev_;
+    inside_ = stats_.inside;
+  }
+
+  // Geometric cost: points with a normal whose sample is missing cost the maximum, like
+  // photometric points outside the image; points without a normal do not take part.
+  [[nodiscard]] double geo_cost(float inv_sg) const {
+    const float max_cost = c_ * c_ / 6.0F;
+    double cost = 0.0;
+    const float* rg = m_.geo_residual.data();
+    const std::uint8_t* vg = m_.geo_valid.data();
+    for (int i = 0; i < L_.count; ++i) {
+      if (vg[i]) {
+        cost += static_cast<double>(tukey_cost(rg[i] * inv_sg, c_));
+      } else if (L_.has_normal[static_cast<std::size_t>(i)]) {
+        cost += static_cast<double>(max_cost);
+      }
+    }
+    return static_cast<double>(static_cast<float>(o_.depth_residual_weight)) * cost;
+  }
+
+  // The robust cost at the scales the step was computed with.
+  StepCheck check_step() {
+    double cost = kernels::tukey_cost_sum(m_.residual.data(), m_.valid.data(), L_.count,
+                                          static_cast<float>(1.0 / sigma_), c_);
+    if (geo_) cost += geo_cost(static_cast<float>(1.0 / geo_sigma_));
+    if (!(cost > prev_cost_)) return StepCheck::kAccepted;  // a NaN cost is not a rise
+    if (halvings_ < 3 && last_step_.head(params_).norm() > 10.0 * o_.update_norm_tolerance) {
+      ++halvings_;
+      last_step_ *= 0.5;
+      apply_step(last_step_);
+      return StepCheck::kHalved;
+    }
+    return StepCheck::kRejected;
+  }
+
+  // Robust scales (thesis eq. 3.40), each frozen once it settles (thesis 3.10).
+  void update_scales(int it) {
+    const int n = L_.count;
+    if (!sigma_frozen_) {
+      const kernels::AbsMedian med = kernels::abs_median(m_.residual.data(), m_.valid.data(), n,
+                                                         median_hint_, m_.abs_residual.data());
+      median_hint_ = med.median;
+      double s = robust_sigma_from_median(med.median, med.valid, params_);
+      s = std::max(s, o_.min_sigma);
+      if (it > 0 && std::fabs(s - sigma_) < o_.sigma_freeze_change) sigma_frozen_ = true;
+      sigma_ = s;
+    }
+    if (geo_ && !geo_sigma_frozen_) {
+      const kernels::AbsMedian med = kernels::abs_median(
+          m_.geo_residual.data(), m_.geo_valid.data(), n, geo_median_hint_, m_.abs_residual.data());
+      geo_median_hint_ = med.median;
+      double s = robust_sigma_from_median(med.median, med.valid, 6);
+      // Not below the sensor's depth noise at this level's median depth: on exact (rendered) or
+      // very clean depth the MAD of a misaligned pair counts the points whose residual the
+      // motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2 weights then
+      // outvote the photometric residuals in steps that raise the robust cost.
+      s = std::max(
+          {s, o_.min_depth_sigma_m, o_.depth_noise_per_m * L_.median_depth * L_.median_depth});
+      // Frozen at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
+      if (it > 0 && std::fabs(s - geo_sigma_) < 5e-5 * s) geo_sigma_frozen_ = true;
+      geo_sigma_ = s;
+    }
+  }
+
+  // Tukey weights (times 1/sigma^2) of both kinds; returns the robust cost.
+  double weigh() {
+    const kernels::WeightSums sums =
+        kernels::tukey_weights(m_.residual.data(), m_.valid.data(), L_.count,
+                               static_cast<float>(1.0 / sigma_), c_, m_.weight.data());
+    double cost = sums.cost;
+    inliers_ = sums.inliers;
+    if (geo_) {
+      const auto inv_sg = static_cast<float>(1.0 / geo_sigma_);
+      const float scale = static_cast<float>(o_.depth_residual_weight) * inv_sg * inv_sg;
+      const float* rg = m_.geo_residual.data();
+      const std::uint8_t* vg = m_.geo_valid.data();
+      float* wg = m_.geo_weight.data();
+      int gin = 0;
+      for (int i = 0; i < L_.count; ++i) {
+        const float u = rg[i] * inv_sg;
+        wg[i] = vg[i] ? tukey_weight(u, c_) * scale : 0.0F;
+        gin += (vg[i] && std::fabs(u) < c_) ? 1 : 0;
+      }
+      stats_.geo_inliers = gin;
+      cost += geo_cost(inv_sg);
+    }
+    return cost;
+  }
+
+  // Solves the normal equations and takes the step; false (the result says why) when they are
+  // singular.
+  bool solve_and_step(double cost) {
+    Matrix8d H;
+    Vector8d g;
+    accumulate_normal_equations(L_, m_.weight.data(), m_.residual.data(), m_.geo_jac,
+                                geo_ ? m_.geo_weight.data() : nullptr, m_.geo_residual.data(), H,
+                                g);
+    stats_.sigma = sigma_;
+    stats_.inliers = inliers_;
+    stats_.inside = inside_;
+    stats_.H = H;
+
+    Vector8d delta = Vector8d::Zero();
+    if (o_.estimate_gain_bias) {
+      delta = H.ldlt().solve(g);
+    } else {
+      delta.head<6>() = H.topLeftCorner<6, 6>().ldlt().solve(g.head<6>());
+    }
+    if (!delta.allFinite() || (o_.estimate_gain_bias && std::fabs(1.0 + delta(6)) < 1e-3)) {
+      res_.failure = TrackFailure::kNumerical;
+      res_.failure_detail = "singular normal equations on level " + std::to_string(level_);
+      return false;
+    }
+    prev_cost_ = cost;
+    prev_ = est_;
+    last_step_ = delta;
+    apply_step(delta);
+    return true;
+  }
+
+  // Converged when the step is tiny or no longer changes (it oscillates at the noise floor).
+  bool step_converged() {
+    const double step = last_step_.head(params_).norm();
+    if (step < o_.update_norm_tolerance ||
+        (prev_step_norm_ >= 0.0 &&
+         std::fabs(step - prev_step_norm_) < o_.update_change_tolerance)) {
+      return true;
+    }
+    prev_step_norm_ = step;
+    return false;
+  }
+
+  // Inverse-compositional update of `prev_` by d (warp_jacobian.hpp).
+  void apply_step(const Vector8d& d) {
+    est_.T_cur_ref = prev_.T_cur_ref * SE3::exp(-d.head<6>());
+    est_.alpha = prev_.alpha;
+    est_.beta = prev_.beta;
+    if (o_.estimate_gain_bias) {
+      const double eta = 1.0 + d(6);
+      est_.alpha = prev_.alpha / eta;
+      est_.beta = (prev_.beta - d(7)) / eta;
+    }
+  }
+
+  DirectTracker::Impl& m_;
+  const DirectTrackerOptions& o_;
+  const ReferenceLevel& L_;
+  const int level_;
+  const bool finest_;
+  const bool geo_;
+  const cv::Mat& cur_;
+  const cv::Mat* cur_depth_;  // only with the geometric residual
+  const int params_;
+  const float c_;
+  Estimate& est_;
+  TrackResult& res_;
+
+  Estimate prev_;  // the estimate before the last step
+  Vector8d last_step_ = Vector8d::Zero();
+  LevelStats stats_;
+  double sigma_ = 0.0, geo_sigma_ = 0.0;
+  bool sigma_frozen_ = false, geo_sigma_frozen_ = false;
+  // Last iteration's median |r| of each kind: where to look for this iteration's.
+  float median_hint_ = 0.0F, geo_median_hint_ = 0.0F;
+  double prev_cost_ = 0.0;
+  double prev_step_norm_ = -1.0;
+  int inside_ = 0, inliers_ = 0, geo_count_ = 0, halvings_ = 0;
+};
+
+// How far a level moved the coarser level's estimate, in pixels of the coarser level.
+double level_jump_px(const ReferenceLevel& coarser, const SE3& T_level_start, const SE3& T) {
+  const SE3 D = T_level_start.inverse() * T;
+  const double zc = std::max(0.1, coarser.median_depth);
+  return static_cast<double>(coarser.fx) * (D.so3().log().norm() + D.translation().norm() / zc);
+}
+
+// The finest level's figures, judged on `health`'s level, and the pose covariance.
+void finish_finest_level(const LevelSolver& solver, LevelEnd end, const HealthLevel& health,
+                         const ReferenceLevel& L, int params, TrackResult& res) {
+  const LevelStats& stats = solver.stats();
+  const bool geo = solver.geometric();
+  res.converged = end == LevelEnd::kConverged;
+  res.sigma = health.sigma;
+  res.photometric_level = health.level;
+  res.depth_sigma = geo ? solver.geo_sigma() : 0.0;
+  res.depth_points = geo ? solver.geo_count() : 0;
+  res.depth_inlier_ratio =
+      geo ? static_cast<double>(stats.geo_inliers) / std::max(1, L.normal_count) : 0.0;
+  res.points = L.count;
+  res.overlap = static_cast<double>(stats.inside) / L.count;
+  res.inlier_ratio = static_cast<double>(health.inliers) / health.points;
+  // Marginal covariance of the pose: the 6x6 block of H^-1 (H holds the 1/sigma^2).
+  Eigen::MatrixXd Hp = stats.H.topLeftCorner(params, params);
+  Eigen::MatrixXd cov = Hp.ldlt().solve(Eigen::MatrixXd::Identity(params, params));
+  res.covariance = cov.topLeftCorner<6, 6>();
+}
+
+// Never report success without overlap and agreement.
+void check_health(const SE3& T_cur_ref, const DirectTrackerOptions& o, const AlignTerms& terms,
+                  TrackResult& res) {
+  const SE3 T_ref_cur = T_cur_ref.inverse();
+  if (!res.covariance.allFinite() || !T_cur_ref.translation().allFinite()) {
+    res.failure = TrackFailure::kNumerical;
+    res.failure_detail = "non-finite estimate";
+  } else if (res.overlap < o.min_overlap) {
+    res.failure = TrackFailure::kNoOverlap;
+    res.failure_detail = "overlap " + std::to_string(res.overlap) + " < min_overlap";
+  } else if (res.sigma > o.max_sigma) {
+    res.failure = TrackFailure::kHighResidual;
+    res.failure_detail = "robust sigma " + std::to_string(res.sigma) + " > max_sigma";
+  } else if (res.inlier_ratio < o.min_inlier_ratio) {
+    res.failure = TrackFailure::kLowInlierRatio;
+    res.failure_detail = "inlier ratio " + std::to_string(res.inlier_ratio) + " < min_inlier_ratio";
+  } else if (terms.fallback_checks &&
+             (res.depth_points < o.min_points || res.depth_inlier_ratio < o.min_inlier_ratio)) {
+    res.failure = TrackFailure::kLowInlierRatio;
+    res.failure_detail = "geometric fallback: " + std::to_string(res.depth_points) +
+                         " point-to-plane residuals, inlier ratio " +
+                         std::to_string(res.depth_inlier_ratio);
+  } else if (T_ref_cur.translation().norm() > o.max_translation_m ||
+             rotation_angle_deg(T_ref_cur) > o.max_rotation_deg) {
+    res.failure = TrackFailure::kImplausibleMotion;
+    res.failure_detail = "motion to the reference beyond max_translation_m/max_rotation_deg";
+  }
+}
+
+}  // namespace
+
 struct AlignRunner {
   // The photometric alignment and, where it asks for it, the geometric fallback
   // (DirectTrackerOptions::geometric_fallback): on a high residual (blur), or when a finer level
@@ -716,299 +1065,59 @@ struct AlignRunner {
     return b.T_cur_ref;
   }
 
+  // Coarse to fine over the pyramid, each level from the coarser one's estimate, then the
+  // health checks.
   static AlignOutcome align(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                             const SE3& T_cur_ref_guess, const AlignTerms& terms) {
     AlignOutcome out;
     TrackResult& res = out.result;
-    SE3 T = T_cur_ref_guess;
-    double alpha = 1.0, beta = 0.0;
-    const auto c = static_cast<float>(o.tukey_c);
-    const float max_cost = c * c / 6.0F;
-    const int params = o.estimate_gain_bias ? 8 : 6;
-    bool finest_done = false;
-    // The level the photometric health is judged on (AlignTerms::fallback_checks).
-    double check_sigma = 0.0;
-    int check_inliers = 0, check_points = 1, check_level = o.finest_level;
-    bool check_passed = false;
-
+    Estimate est{T_cur_ref_guess};
+    HealthLevel health;
+    health.level = o.finest_level;
     for (int l = o.pyramid_levels - 1; l >= o.finest_level; --l) {
       const ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
       const bool finest = (l == o.finest_level);
       if (L.count < o.min_points) {
         if (!finest) continue;  // a coarse level without enough points is skipped
         res.failure = TrackFailure::kTooFewPoints;
-        res.failure_detail = "reference has " + std::to_string(L.count) + " usable points on level " +
-                             std::to_string(l) + " (min_points " + std::to_string(o.min_points) + ")";
-        out.T_cur_ref = T;
+        res.failure_detail = "reference has " + std::to_string(L.count) +
+                             " usable points on level " + std::to_string(l) + " (min_points " +
+                             std::to_string(o.min_points) + ")";
+        out.T_cur_ref = est.T_cur_ref;
         return out;
       }
-      const cv::Mat& cur = m.pyramid.level(l);
-      const int max_iter = (l == 0) ? o.max_iterations_finest : o.max_iterations_coarse;
-      const int n = L.count;
-      const int n_padded = pad_to_lanes(n);
-      for (int i = n; i < n_padded; ++i) {
-        m.weight[static_cast<std::size_t>(i)] = 0.0F;
-        m.residual[static_cast<std::size_t>(i)] = 0.0F;
-        m.geo_weight[static_cast<std::size_t>(i)] = 0.0F;
-        m.geo_residual[static_cast<std::size_t>(i)] = 0.0F;
+      const SE3 T_level_start = est.T_cur_ref;
+      LevelSolver solver(m, o, l, terms.geometric, est, res);
+      const LevelEnd end = solver.run();
+      if (end == LevelEnd::kFailed) {
+        out.T_cur_ref = est.T_cur_ref;
+        return out;
       }
-      // The geometric residual joins where enough points have a normal.
-      const bool geo = terms.geometric && o.depth_residual_weight > 0.0 &&
-                       L.normal_count >= o.min_points;
-      // Built only for the geometric residual: no reference to a level that does not exist.
-      const cv::Mat* cur_depth = geo ? &m.depth_pyramid.level(l) : nullptr;
-      const auto geo_lambda = static_cast<float>(o.depth_residual_weight);
-      const auto geo_spread = static_cast<float>(o.depth_residual_max_relative_spread);
-      // Geometric cost: points with a normal whose sample is missing cost the maximum, like
-      // photometric points outside the image; points without a normal do not take part.
-      auto geo_cost = [&](float inv_sg) {
-        double cost = 0.0;
-        const float* rg = m.geo_residual.data();
-        const std::uint8_t* vg = m.geo_valid.data();
-        for (int i = 0; i < n; ++i) {
-          if (vg[i]) {
-            cost += static_cast<double>(tukey_cost(rg[i] * inv_sg, c));
-          } else if (L.has_normal[static_cast<std::size_t>(i)]) {
-            cost += static_cast<double>(max_cost);
-          }
-        }
-        return static_cast<double>(geo_lambda) * cost;
-      };
-
-      double sigma = 0.0;
-      bool sigma_frozen = false;
-      double geo_sigma = 0.0;
-      bool geo_sigma_frozen = false;
-      // Last iteration's median |r| of each kind: where to look for this iteration's.
-      float median_hint = 0.0F, geo_median_hint = 0.0F;
-      int geo_count = 0;
-      double prev_cost = 0.0;
-      double prev_step_norm = -1.0;
-      const SE3 T_level_start = T;
-      SE3 T_prev = T;
-      double alpha_prev = alpha, beta_prev = beta;
-      LevelStats stats;
-      bool level_converged = false;
-      int inside = 0;
-      int halvings = 0;
-      Vector8d last_step = Vector8d::Zero();
-      // Inverse-compositional update (warp_jacobian.hpp).
-      auto apply_step = [&](const SE3& T0, double alpha0, double beta0, const Vector8d& d) {
-        T = T0 * SE3::exp(-d.head<6>());
-        alpha = alpha0;
-        beta = beta0;
-        if (o.estimate_gain_bias) {
-          const double eta = 1.0 + d(6);
-          alpha = alpha0 / eta;
-          beta = (beta0 - d(7)) / eta;
-        }
-      };
-
-      const kernels::Sampling sampling = level_sampling(o, finest);
-      for (int it = 0; it < max_iter; ++it) {
-        inside = TrackerAccess::warp_residuals(m, L, cur, T, static_cast<float>(alpha),
-                                               static_cast<float>(beta), sampling);
-        if (geo) geo_count = TrackerAccess::warp_geometric(m, L, *cur_depth, T, geo_spread);
-        ++res.iterations;
-        if (inside < o.min_points) {
-          if (it > 0) {  // the last step left the image: undo it and stop this level
-            T = T_prev;  // `stats` still describe T_prev: it has not been updated yet
-            alpha = alpha_prev;
-            beta = beta_prev;
-            inside = stats.inside;
-            break;
-          }
-          res.failure = TrackFailure::kNoOverlap;
-          res.failure_detail = std::to_string(inside) + " of " + std::to_string(n) +
-                               " reference points land in the image on level " + std::to_string(l);
-          res.overlap = static_cast<double>(inside) / n;
-          out.T_cur_ref = T;
-          return out;
-        }
-        const float* r = m.residual.data();
-        const std::uint8_t* val = m.valid.data();
-
-        // Step acceptance: the robust cost at the sigma the step was computed with. A step that
-        // raises it is halved (up to 3 times: far from the optimum Gauss-Newton overshoots);
-        // if it still does, the level ends at the previous pose (the noise floor is reached).
-        if (it > 0 && o.stop_on_cost_increase) {
-          double cost = kernels::tukey_cost_sum(r, val, n, static_cast<float>(1.0 / sigma), c);
-          if (geo) cost += geo_cost(static_cast<float>(1.0 / geo_sigma));
-          if (cost > prev_cost) {
-            if (halvings < 3 && last_step.head(params).norm() > 10.0 * o.update_norm_tolerance) {
-              ++halvings;
-              last_step *= 0.5;
-              apply_step(T_prev, alpha_prev, beta_prev, last_step);
-              continue;
-            }
-            T = T_prev;  // `stats` still describe T_prev: it has not been updated yet
-            alpha = alpha_prev;
-            beta = beta_prev;
-            inside = stats.inside;
-            level_converged = true;
-            break;
-          }
-        }
-        halvings = 0;
-
-        // Robust scale (thesis eq. 3.40), frozen once it settles (thesis 3.10).
-        if (!sigma_frozen) {
-          const kernels::AbsMedian med =
-              kernels::abs_median(r, val, n, median_hint, m.abs_residual.data());
-          median_hint = med.median;
-          double s = robust_sigma_from_median(med.median, med.valid, params);
-          s = std::max(s, o.min_sigma);
-          if (it > 0 && std::fabs(s - sigma) < o.sigma_freeze_change) sigma_frozen = true;
-          sigma = s;
-        }
-        // The geometric residuals' own robust scale, by the same rule (in metres).
-        if (geo && !geo_sigma_frozen) {
-          const kernels::AbsMedian med = kernels::abs_median(
-              m.geo_residual.data(), m.geo_valid.data(), n, geo_median_hint, m.abs_residual.data());
-          geo_median_hint = med.median;
-          double s = robust_sigma_from_median(med.median, med.valid, 6);
-          // Not below the sensor's depth noise at this level's median depth: on exact (rendered)
-          // or very clean depth the MAD of a misaligned pair counts the points whose residual
-          // the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2 weights
-          // then outvote the photometric residuals in steps that raise the robust cost.
-          s = std::max({s, o.min_depth_sigma_m,
-                        o.depth_noise_per_m * L.median_depth * L.median_depth});
-          // Frozen at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
-          if (it > 0 && std::fabs(s - geo_sigma) < 5e-5 * s) {
-            geo_sigma_frozen = true;
-          }
-          geo_sigma = s;
-        }
-
-        // Weights, cost, inliers.
-        const auto inv_sigma = static_cast<float>(1.0 / sigma);
-        float* w = m.weight.data();
-        // Weights carry 1/sigma^2, so that the two kinds of residual combine as normalised
-        // residuals and H^-1 is the covariance.
-        const kernels::WeightSums sums = kernels::tukey_weights(r, val, n, inv_sigma, c, w);
-        double cost = sums.cost;
-        const int inliers = sums.inliers;
-        if (geo) {
-          const auto inv_sg = static_cast<float>(1.0 / geo_sigma);
-          const float scale = geo_lambda * inv_sg * inv_sg;
-          const float* rg = m.geo_residual.data();
-          const std::uint8_t* vg = m.geo_valid.data();
-          float* wg = m.geo_weight.data();
-          int gin = 0;
-          for (int i = 0; i < n; ++i) {
-            const float u = rg[i] * inv_sg;
-            wg[i] = vg[i] ? tukey_weight(u, c) * scale : 0.0F;
-            gin += (vg[i] && std::fabs(u) < c) ? 1 : 0;
-          }
-          stats.geo_inliers = gin;
-          cost += geo_cost(inv_sg);
-        }
-
-        Matrix8d H;
-        Vector8d g;
-        accumulate_normal_equations(L, w, r, m.geo_jac, geo ? m.geo_weight.data() : nullptr,
-                                    m.geo_residual.data(), H, g);
-        stats.sigma = sigma;
-        stats.inliers = inliers;
-        stats.inside = inside;
-        stats.H = H;
-
-        Vector8d delta = Vector8d::Zero();
-        if (o.estimate_gain_bias) {
-          delta = H.ldlt().solve(g);
-        } else {
-          delta.head<6>() = H.topLeftCorner<6, 6>().ldlt().solve(g.head<6>());
-        }
-        if (!delta.allFinite() || (o.estimate_gain_bias && std::fabs(1.0 + delta(6)) < 1e-3)) {
-          res.failure = TrackFailure::kNumerical;
-          res.failure_detail = "singular normal equations on level " + std::to_string(l);
-          out.T_cur_ref = T;
-          return out;
-        }
-        prev_cost = cost;
-        T_prev = T;
-        alpha_prev = alpha;
-        beta_prev = beta;
-        last_step = delta;
-        apply_step(T_prev, alpha_prev, beta_prev, delta);
-        const double step = delta.head(params).norm();
-        if (step < o.update_norm_tolerance ||
-            (prev_step_norm >= 0.0 && std::fabs(step - prev_step_norm) < o.update_change_tolerance)) {
-          level_converged = true;
-          break;
-        }
-        prev_step_norm = step;
-      }
-      // How far this level moved the coarser level's estimate, in pixels of the coarser level.
       if (l + 1 < o.pyramid_levels) {
-        const SE3 D = T_level_start.inverse() * T;
-        const double zc = std::max(0.1, m.ref[static_cast<std::size_t>(l + 1)].median_depth);
-        const double fl = m.ref[static_cast<std::size_t>(l + 1)].fx;
-        out.max_level_jump_px = std::max(out.max_level_jump_px,
-            fl * (D.so3().log().norm() + D.translation().norm() / zc));
+        out.max_level_jump_px = std::max(
+            out.max_level_jump_px,
+            level_jump_px(m.ref[static_cast<std::size_t>(l + 1)], T_level_start, est.T_cur_ref));
       }
       // Coarse to fine: with fallback_checks the finest level that passes (or, while none has,
       // the current one); else the finest level.
-      const bool record = terms.fallback_checks
-                              ? (stats.sigma <= o.max_sigma || !check_passed)
-                              : finest;
+      const LevelStats& stats = solver.stats();
+      const bool record =
+          terms.fallback_checks ? (stats.sigma <= o.max_sigma || !health.passed) : finest;
       if (record) {
-        check_passed = check_passed || stats.sigma <= o.max_sigma;
-        check_level = l;
-        check_sigma = stats.sigma;
-        check_inliers = stats.inliers;
-        check_points = n;
+        health.passed = health.passed || stats.sigma <= o.max_sigma;
+        health.level = l;
+        health.sigma = stats.sigma;
+        health.inliers = stats.inliers;
+        health.points = L.count;
       }
-      if (finest) {
-        finest_done = true;
-        res.converged = level_converged;
-        res.sigma = check_sigma;
-        res.photometric_level = check_level;
-        res.depth_sigma = geo ? geo_sigma : 0.0;
-        res.depth_points = geo ? geo_count : 0;
-        res.depth_inlier_ratio =
-            geo ? static_cast<double>(stats.geo_inliers) / std::max(1, L.normal_count) : 0.0;
-        res.points = n;
-        res.overlap = static_cast<double>(stats.inside) / n;
-        res.inlier_ratio = static_cast<double>(check_inliers) / check_points;
-        // Marginal covariance of the pose: the 6x6 block of H^-1 (H holds the 1/sigma^2).
-        const int p = params;
-        Eigen::MatrixXd Hp = stats.H.topLeftCorner(p, p);
-        Eigen::MatrixXd cov = Hp.ldlt().solve(Eigen::MatrixXd::Identity(p, p));
-        res.covariance = cov.topLeftCorner<6, 6>();
-      }
+      if (finest) finish_finest_level(solver, end, health, L, o.estimate_gain_bias ? 8 : 6, res);
     }
-    (void)finest_done;
-    out.T_cur_ref = T;
-    out.alpha = alpha;
-    out.beta = beta;
-    res.gain = alpha - 1.0;
-    res.bias = beta;
-    // Health checks: never report success without overlap and agreement.
-    const SE3 T_ref_cur = T.inverse();
-    if (!res.covariance.allFinite() || !T.translation().allFinite()) {
-      res.failure = TrackFailure::kNumerical;
-      res.failure_detail = "non-finite estimate";
-    } else if (res.overlap < o.min_overlap) {
-      res.failure = TrackFailure::kNoOverlap;
-      res.failure_detail = "overlap " + std::to_string(res.overlap) + " < min_overlap";
-    } else if (res.sigma > o.max_sigma) {
-      res.failure = TrackFailure::kHighResidual;
-      res.failure_detail = "robust sigma " + std::to_string(res.sigma) + " > max_sigma";
-    } else if (res.inlier_ratio < o.min_inlier_ratio) {
-      res.failure = TrackFailure::kLowInlierRatio;
-      res.failure_detail = "inlier ratio " + std::to_string(res.inlier_ratio) + " < min_inlier_ratio";
-    } else if (terms.fallback_checks &&
-               (res.depth_points < o.min_points || res.depth_inlier_ratio < o.min_inlier_ratio)) {
-      res.failure = TrackFailure::kLowInlierRatio;
-      res.failure_detail = "geometric fallback: " + std::to_string(res.depth_points) +
-                           " point-to-plane residuals, inlier ratio " +
-                           std::to_string(res.depth_inlier_ratio);
-    } else if (T_ref_cur.translation().norm() > o.max_translation_m ||
-               rotation_angle_deg(T_ref_cur) > o.max_rotation_deg) {
-      res.failure = TrackFailure::kImplausibleMotion;
-      res.failure_detail = "motion to the reference beyond max_translation_m/max_rotation_deg";
-    }
+    out.T_cur_ref = est.T_cur_ref;
+    out.alpha = est.alpha;
+    out.beta = est.beta;
+    res.gain = est.alpha - 1.0;
+    res.bias = est.beta;
+    check_health(est.T_cur_ref, o, terms, res);
     return out;
   }
 };
