@@ -264,160 +264,11 @@ struct TrackerAccess {
   // Reference building: gradients, selection and the precomputed IC Jacobians per level.
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                               const std::vector<PinholeCamera>& cams) {
-    // With the geometric residual, prepare_frame() already built this frame's depth pyramid.
-    // Disparity input: each level reads the full-resolution disparity (thesis 3.10).
-    const bool disp = m.disparity_input;
-    if (disp) {
-      for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
-        disparity_at_level(m.disparity, l, static_cast<float>(o.depth_pyramid_max_relative_spread),
-                           m.disparity_levels[static_cast<std::size_t>(l)]);
-      }
-    } else {
-      m.ensure_depth_pyramid(o);
-    }
-    const bool normals = o.use_depth_residual || o.geometric_fallback;
+    prepare_reference_maps(m, o);
     std::size_t max_count = 0;
     for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
-      ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
-      const cv::Mat& img = m.pyramid.level(l);
-      // Depth (m) or, with disparity input, disparity (full-resolution pixels).
-      const cv::Mat& dep = disp ? m.disparity_levels[static_cast<std::size_t>(l)]
-                                : m.depth_pyramid.level(l);
-      const PinholeCamera& cam = cams[static_cast<std::size_t>(l)];
-      const DisparitySpaceCamera dcam =
-          disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{};
-      L.fx = static_cast<float>(cam.fx());
-      L.fy = static_cast<float>(cam.fy());
-      L.cx = static_cast<float>(cam.cx());
-      L.cy = static_cast<float>(cam.cy());
-      L.width = img.cols;
-      L.height = img.rows;
-      image::central_gradients(img, m.gx, m.gy);
-
-      // The depth range; in disparity space d in [f B / max_depth, f B / min_depth], the same
-      // numbers on every level (d stays in full-resolution pixels).
-      const double fb = m.rig.f * m.rig.baseline_m;
-      const auto zmin = static_cast<float>(disp ? fb / o.max_depth_m : o.min_depth_m);
-      const auto zmax = static_cast<float>(disp ? fb / o.min_depth_m : o.max_depth_m);
-      const auto g2min = static_cast<float>(o.min_gradient * o.min_gradient);
-      // Score = squared gradient where the point is usable (depth in range, gradient above
-      // min_gradient), 0 elsewhere and on the border; branch-free, so it vectorises. Then the
-      // strongest max_points_per_level in image order (point_selection.hpp). Measured on
-      // BM_AlignPair/6000 (a keyframe per iteration): emplace_back + nth_element + sort of the
-      // candidates took ~40 % of build_reference.
-      m.scores.assign(static_cast<std::size_t>(img.rows) * static_cast<std::size_t>(img.cols),
-                      0.0F);
-      for (int y = 1; y < img.rows - 1; ++y) {
-        const float* d = dep.ptr<float>(y);
-        const float* gxr = m.gx.ptr<float>(y);
-        const float* gyr = m.gy.ptr<float>(y);
-        float* sc = m.scores.data() + static_cast<std::ptrdiff_t>(y) * img.cols;
-        for (int x = 1; x < img.cols - 1; ++x) {
-          const float z = d[x];
-          const float g2 = gxr[x] * gxr[x] + gyr[x] * gyr[x];
-          const bool ok = (z >= zmin) & (z <= zmax) & (g2 >= g2min) & (g2 > 0.0F);
-          sc[x] = ok ? g2 : 0.0F;
-        }
-      }
-      select_strongest(m.scores, static_cast<std::size_t>(std::max(0, o.max_points_per_level)),
-                       m.selected, m.selection_scratch);
-      const int n = static_cast<int>(m.selected.size());
-      const auto padded = static_cast<std::size_t>(pad_to_lanes(n));
-      L.count = n;
-      L.x.assign(padded, 0.0F);
-      L.y.assign(padded, 0.0F);
-      L.z.assign(padded, 1.0F);
-      L.intensity.assign(padded, 0.0F);
-      for (auto& col : L.jac) col.assign(padded, 0.0F);
-      L.nx.assign(padded, 0.0F);
-      L.ny.assign(padded, 0.0F);
-      L.nz.assign(padded, 0.0F);
-      L.n_dot_p.assign(padded, 0.0F);
-      L.has_normal.assign(padded, 0);
-      L.normal_count = 0;
-      m.depth_scratch.clear();
-      const float* img_data = img.ptr<float>();
-      const float* gx_data = m.gx.ptr<float>();
-      const float* gy_data = m.gy.ptr<float>();
-      const float* dep_data = dep.ptr<float>();
-      for (int i = 0; i < n; ++i) {
-        const int idx = m.selected[static_cast<std::size_t>(i)];
-        const int u = idx % img.cols;
-        const int v = idx / img.cols;
-        double z = dep_data[idx];
-        Eigen::Vector3d P;
-        Vector8d J;
-        if (disp) {
-          // P = Gamma_l^-1 (x, y, d) and the Jacobian in disparity space (thesis 3.7, 3.36).
-          const double d = z;
-          P = dcam.point(u, v, d);
-          z = P.z();
-          J.head<6>() =
-              disparity_photometric_pose_jacobian(dcam, u, v, d, gx_data[idx], gy_data[idx])
-                  .transpose();
-          J(6) = img_data[idx];
-          J(7) = 1.0;
-        } else {
-          P = Eigen::Vector3d((u - cam.cx()) / cam.fx() * z, (v - cam.cy()) / cam.fy() * z, z);
-        }
-        // Depth taken at another time: read it where the pixel's ray was then (the rotation's
-        // infinite homography), and move that point to the image's time.
-        int ud = u, vd = v;
-        bool shifted = false;
-        if (m.depth_time_shift) {
-          const Eigen::Vector3d ray = m.T_rgb_depth.so3().inverse() *
-              Eigen::Vector3d((u - cam.cx()) / cam.fx(), (v - cam.cy()) / cam.fy(), 1.0);
-          if (ray.z() > 1e-6) {
-            const auto uu = static_cast<int>(std::lround(cam.fx() * ray.x() / ray.z() + cam.cx()));
-            const auto vv = static_cast<int>(std::lround(cam.fy() * ray.y() / ray.z() + cam.cy()));
-            if (uu >= 0 && vv >= 0 && uu < img.cols && vv < img.rows) {
-              const double zd = dep.at<float>(vv, uu);
-              if (zd >= o.min_depth_m && zd <= o.max_depth_m) {
-                ud = uu;
-                vd = vv;
-                z = zd;
-                P = m.T_rgb_depth * Eigen::Vector3d((ud - cam.cx()) / cam.fx() * z,
-                                                    (vd - cam.cy()) / cam.fy() * z, z);
-                shifted = true;
-              }
-            }
-          }
-        }
-        if (!disp) {
-          J = photometric_jacobian(P, gx_data[idx], gy_data[idx], cam.fx(), cam.fy(),
-                                   img_data[idx]);
-        }
-        const auto k = static_cast<std::size_t>(i);
-        L.x[k] = static_cast<float>(P.x());
-        L.y[k] = static_cast<float>(P.y());
-        L.z[k] = static_cast<float>(P.z());
-        L.intensity[k] = img_data[idx];
-        for (std::size_t c = 0; c < 8; ++c) L.jac[c][k] = static_cast<float>(J(static_cast<long>(c)));
-        if (normals) {
-          Eigen::Vector3d normal;
-          const Eigen::Vector3d P_depth = shifted ? m.T_rgb_depth.inverse() * P : P;
-          if ((!m.depth_time_shift || shifted) &&
-              normal_at(dep, cam, ud, vd, static_cast<float>(o.depth_residual_max_relative_spread),
-                        P_depth, normal)) {
-            if (shifted) normal = m.T_rgb_depth.so3() * normal;
-            L.nx[k] = static_cast<float>(normal.x());
-            L.ny[k] = static_cast<float>(normal.y());
-            L.nz[k] = static_cast<float>(normal.z());
-            L.n_dot_p[k] = static_cast<float>(normal.dot(P));
-            L.has_normal[k] = 1;
-            ++L.normal_count;
-          }
-        }
-        m.depth_scratch.push_back(static_cast<float>(z));
-      }
-      if (!m.depth_scratch.empty()) {
-        auto mid = m.depth_scratch.begin() + static_cast<long>(m.depth_scratch.size() / 2);
-        std::nth_element(m.depth_scratch.begin(), mid, m.depth_scratch.end());
-        L.median_depth = *mid;
-      } else {
-        L.median_depth = 0.0;
-      }
-      max_count = std::max(max_count, padded);
+      max_count =
+          std::max(max_count, build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l));
     }
     if (m.residual.size() < max_count) {
       m.residual.resize(max_count);
@@ -430,6 +281,198 @@ struct TrackerAccess {
       for (auto& col : m.geo_jac) col.assign(max_count, 0.0F);
     }
     m.has_ref = true;
+  }
+
+  // The per-level maps the points are read from. With the geometric residual, prepare_frame()
+  // already built this frame's depth pyramid. Disparity input: each level reads the
+  // full-resolution disparity (thesis 3.10).
+  static void prepare_reference_maps(DirectTracker::Impl& m, const DirectTrackerOptions& o) {
+    if (m.disparity_input) {
+      for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
+        disparity_at_level(m.disparity, l, static_cast<float>(o.depth_pyramid_max_relative_spread),
+                           m.disparity_levels[static_cast<std::size_t>(l)]);
+      }
+    } else {
+      m.ensure_depth_pyramid(o);
+    }
+  }
+
+  // One level's points, Jacobians, normals and median depth; returns its padded point count.
+  static std::size_t build_reference_level(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                                           const PinholeCamera& cam, int l) {
+    const bool disp = m.disparity_input;
+    ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
+    const cv::Mat& img = m.pyramid.level(l);
+    // Depth (m) or, with disparity input, disparity (full-resolution pixels).
+    const cv::Mat& dep =
+        disp ? m.disparity_levels[static_cast<std::size_t>(l)] : m.depth_pyramid.level(l);
+    L.fx = static_cast<float>(cam.fx());
+    L.fy = static_cast<float>(cam.fy());
+    L.cx = static_cast<float>(cam.cx());
+    L.cy = static_cast<float>(cam.cy());
+    L.width = img.cols;
+    L.height = img.rows;
+    image::central_gradients(img, m.gx, m.gy);
+    select_points(m, o, img, dep);
+    const int n = static_cast<int>(m.selected.size());
+    const auto padded = static_cast<std::size_t>(pad_to_lanes(n));
+    reset_points(L, n, padded);
+    m.depth_scratch.clear();
+    const PointSource src{img, dep, cam,
+                          disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{}};
+    for (int i = 0; i < n; ++i) add_point(m, o, src, m.selected[static_cast<std::size_t>(i)], i, L);
+    if (!m.depth_scratch.empty()) {
+      auto mid = m.depth_scratch.begin() + static_cast<long>(m.depth_scratch.size() / 2);
+      std::nth_element(m.depth_scratch.begin(), mid, m.depth_scratch.end());
+      L.median_depth = *mid;
+    } else {
+      L.median_depth = 0.0;
+    }
+    return padded;
+  }
+
+  // Score = squared gradient where the point is usable (depth in range, gradient above
+  // min_gradient), 0 elsewhere and on the border; branch-free, so it vectorises. Then the
+  // strongest max_points_per_level in image order (point_selection.hpp) into m.selected.
+  static void select_points(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                            const cv::Mat& img, const cv::Mat& dep) {
+    // The depth range; in disparity space d in [f B / max_depth, f B / min_depth], the same
+    // numbers on every level (d stays in full-resolution pixels).
+    const bool disp = m.disparity_input;
+    const double fb = m.rig.f * m.rig.baseline_m;
+    const auto zmin = static_cast<float>(disp ? fb / o.max_depth_m : o.min_depth_m);
+    const auto zmax = static_cast<float>(disp ? fb / o.min_depth_m : o.max_depth_m);
+    const auto g2min = static_cast<float>(o.min_gradient * o.min_gradient);
+    m.scores.assign(static_cast<std::size_t>(img.rows) * static_cast<std::size_t>(img.cols), 0.0F);
+    for (int y = 1; y < img.rows - 1; ++y) {
+      const float* d = dep.ptr<float>(y);
+      const float* gxr = m.gx.ptr<float>(y);
+      const float* gyr = m.gy.ptr<float>(y);
+      float* sc = m.scores.data() + static_cast<std::ptrdiff_t>(y) * img.cols;
+      for (int x = 1; x < img.cols - 1; ++x) {
+        const float z = d[x];
+        const float g2 = gxr[x] * gxr[x] + gyr[x] * gyr[x];
+        const bool ok = (z >= zmin) & (z <= zmax) & (g2 >= g2min) & (g2 > 0.0F);
+        sc[x] = ok ? g2 : 0.0F;
+      }
+    }
+    select_strongest(m.scores, static_cast<std::size_t>(std::max(0, o.max_points_per_level)),
+                     m.selected, m.selection_scratch);
+  }
+
+  // n points, padded to whole SIMD lanes with points that weigh nothing.
+  static void reset_points(ReferenceLevel& L, int n, std::size_t padded) {
+    L.count = n;
+    L.x.assign(padded, 0.0F);
+    L.y.assign(padded, 0.0F);
+    L.z.assign(padded, 1.0F);
+    L.intensity.assign(padded, 0.0F);
+    for (auto& col : L.jac) col.assign(padded, 0.0F);
+    L.nx.assign(padded, 0.0F);
+    L.ny.assign(padded, 0.0F);
+    L.nz.assign(padded, 0.0F);
+    L.n_dot_p.assign(padded, 0.0F);
+    L.has_normal.assign(padded, 0);
+    L.normal_count = 0;
+  }
+
+  // What a level's points are read from.
+  struct PointSource {
+    const cv::Mat& img;
+    const cv::Mat& dep;  // depth (m) or disparity (full-resolution px)
+    const PinholeCamera& cam;
+    DisparitySpaceCamera dcam;  // disparity input only
+  };
+
+  // A reference point before it is stored: where its depth was read (the pixel itself, or where
+  // its ray was when a time-shifted depth map was taken) and its 3D position.
+  struct PointDepth {
+    Eigen::Vector3d P;
+    double z = 0.0;
+    int ud = 0, vd = 0;
+    bool shifted = false;
+  };
+
+  // Selected pixel `idx` as point i of level L: position, Jacobian (pose, gain, bias) and, for
+  // the geometric residual, its normal.
+  static void add_point(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                        const PointSource& src, int idx, int i, ReferenceLevel& L) {
+    const cv::Mat& img = src.img;
+    const PinholeCamera& cam = src.cam;
+    const int u = idx % img.cols;
+    const int v = idx / img.cols;
+    const float* img_data = img.ptr<float>();
+    const float* gx_data = m.gx.ptr<float>();
+    const float* gy_data = m.gy.ptr<float>();
+    PointDepth pd{Eigen::Vector3d::Zero(), src.dep.ptr<float>()[idx], u, v, false};
+    Vector8d J;
+    if (m.disparity_input) {
+      // P = Gamma_l^-1 (x, y, d) and the Jacobian in disparity space (thesis 3.7, 3.36).
+      const double d = pd.z;
+      pd.P = src.dcam.point(u, v, d);
+      pd.z = pd.P.z();
+      J.head<6>() =
+          disparity_photometric_pose_jacobian(src.dcam, u, v, d, gx_data[idx], gy_data[idx])
+              .transpose();
+      J(6) = img_data[idx];
+      J(7) = 1.0;
+    } else {
+      pd.P =
+          Eigen::Vector3d((u - cam.cx()) / cam.fx() * pd.z, (v - cam.cy()) / cam.fy() * pd.z, pd.z);
+    }
+    if (m.depth_time_shift) shift_point_depth(m, o, src, pd);
+    if (!m.disparity_input) {
+      J = photometric_jacobian(pd.P, gx_data[idx], gy_data[idx], cam.fx(), cam.fy(), img_data[idx]);
+    }
+    const auto k = static_cast<std::size_t>(i);
+    L.x[k] = static_cast<float>(pd.P.x());
+    L.y[k] = static_cast<float>(pd.P.y());
+    L.z[k] = static_cast<float>(pd.P.z());
+    L.intensity[k] = img_data[idx];
+    for (std::size_t c = 0; c < 8; ++c) L.jac[c][k] = static_cast<float>(J(static_cast<long>(c)));
+    if (o.use_depth_residual || o.geometric_fallback) add_normal(m, o, src, pd, k, L);
+    m.depth_scratch.push_back(static_cast<float>(pd.z));
+  }
+
+  // Depth taken at another time: read it where the pixel's ray was then (the rotation's
+  // infinite homography), and move that point to the image's time.
+  static void shift_point_depth(const DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                                const PointSource& src, PointDepth& pd) {
+    const PinholeCamera& cam = src.cam;
+    const Eigen::Vector3d ray =
+        m.T_rgb_depth.so3().inverse() *
+        Eigen::Vector3d((pd.ud - cam.cx()) / cam.fx(), (pd.vd - cam.cy()) / cam.fy(), 1.0);
+    if (!(ray.z() > 1e-6)) return;
+    const auto uu = static_cast<int>(std::lround(cam.fx() * ray.x() / ray.z() + cam.cx()));
+    const auto vv = static_cast<int>(std::lround(cam.fy() * ray.y() / ray.z() + cam.cy()));
+    if (uu < 0 || vv < 0 || uu >= src.img.cols || vv >= src.img.rows) return;
+    const double zd = src.dep.at<float>(vv, uu);
+    if (!(zd >= o.min_depth_m && zd <= o.max_depth_m)) return;
+    pd.ud = uu;
+    pd.vd = vv;
+    pd.z = zd;
+    pd.P = m.T_rgb_depth * Eigen::Vector3d((pd.ud - cam.cx()) / cam.fx() * pd.z,
+                                           (pd.vd - cam.cy()) / cam.fy() * pd.z, pd.z);
+    pd.shifted = true;
+  }
+
+  // The point's surface normal, where the depth around it gives a reliable one.
+  static void add_normal(const DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                         const PointSource& src, const PointDepth& pd, std::size_t k,
+                         ReferenceLevel& L) {
+    Eigen::Vector3d normal;
+    const Eigen::Vector3d P_depth = pd.shifted ? m.T_rgb_depth.inverse() * pd.P : pd.P;
+    if ((!m.depth_time_shift || pd.shifted) &&
+        normal_at(src.dep, src.cam, pd.ud, pd.vd,
+                  static_cast<float>(o.depth_residual_max_relative_spread), P_depth, normal)) {
+      if (pd.shifted) normal = m.T_rgb_depth.so3() * normal;
+      L.nx[k] = static_cast<float>(normal.x());
+      L.ny[k] = static_cast<float>(normal.y());
+      L.nz[k] = static_cast<float>(normal.z());
+      L.n_dot_p[k] = static_cast<float>(normal.dot(pd.P));
+      L.has_normal[k] = 1;
+      ++L.normal_count;
+    }
   }
 
   // Unit normal of the surface at pixel (u, v) of a depth level, from the back-projected
@@ -1165,154 +1208,212 @@ TrackResult DirectTracker::track(const DisparityFrame& frame) {
   return track_prepared(frame.t_ns, 0);
 }
 
-TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
-  Impl& m = *impl_;
-  TrackResult result;
-  result.t_ns = t_ns;
-  // The depth map's time offset, moved by the motion per frame `velocity` over `frame_dt`.
-  auto set_depth_time_shift = [&](bool known, const SE3& velocity, TimeNs frame_dt) {
-    const TimeNs offset = depth_t_ns != 0 ? depth_t_ns - t_ns : 0;
-    m.depth_time_shift = options_.compensate_depth_time_offset && known && frame_dt > 0 &&
-                         offset != 0 && std::llabs(offset) < 100'000'000LL;
-    m.T_rgb_depth = m.depth_time_shift
-        ? SE3::exp(static_cast<double>(offset) / static_cast<double>(frame_dt) * velocity.log())
-        : SE3();
-  };
-  set_depth_time_shift(m.has_prev && m.has_velocity, m.velocity, m.dt_prev);
-  const bool rolling_shutter = m.rolling_shutter.has_value();
+namespace {
 
-  if (!m.has_ref || !m.has_prev) {
-    // The first frame defines the world.
-    m.rs_ref_rectified = m.rs_frame_rectified;
-    TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-    m.ref_t_ns = t_ns;
-    m.T_world_ref = SE3();
-    m.T_world_prev = SE3();
-    m.t_prev = t_ns;
-    m.has_prev = true;
-    m.has_velocity = false;
+// One frame of the tracking policy (thesis 5.2): the first frame defines the world; later ones
+// are aligned to the keyframe from a constant-velocity prediction, retried against the previous
+// frame where that fails, and switch the keyframe when they leave it; a failure restarts from
+// the frame itself.
+class TrackingStep {
+ public:
+  TrackingStep(DirectTracker::Impl& m, const DirectTrackerOptions& o, TimeNs t_ns,
+               TimeNs depth_t_ns)
+      : m_(m), o_(o), t_ns_(t_ns), depth_t_ns_(depth_t_ns) {}
+
+  TrackResult run() {
+    set_depth_time_shift(m_.has_prev && m_.has_velocity, m_.velocity, m_.dt_prev);
+    if (!m_.has_ref || !m_.has_prev) return start_sequence();
+    const SE3 T_world_pred = predict();
+    const SE3 T_ref_guess = m_.T_world_ref.inverse() * T_world_pred;
+    AlignOutcome a = AlignRunner::align_with_fallback(m_, o_, T_ref_guess.inverse());
+    const bool fallback = a.result.geometric_fallback;
+    const TimeNs keyframe_t_ns = m_.ref_t_ns;
+    const SE3 T_world_keyframe = m_.T_world_ref;
+    const bool retried = retry_previous_frame(T_world_pred, a);
+    TrackResult result = a.result;
+    result.retried_previous = retried;
+    result.t_ns = t_ns_;
+    // The keyframe's alignment stood, but its reference data were replaced by the previous
+    // frame's for the retry: this frame then becomes the keyframe.
+    const bool keyframe_lost = !retried && m_.ref_t_ns != keyframe_t_ns;
+    if (keyframe_lost) {
+      m_.T_world_ref = T_world_keyframe;
+      m_.ref_t_ns = keyframe_t_ns;
+    }
+    if (fallback && result.ok() && o_.fallback_rotation_from_previous_frame) {
+      refine_fallback_rotation(a, result);
+    }
+    result.ref_t_ns = m_.ref_t_ns;
+    if (result.ok()) {
+      accept(a.T_cur_ref.inverse(), fallback, keyframe_lost, result);
+    } else {
+      restart(T_world_pred, result);
+    }
+    m_.dt_prev = dt_;
+    m_.t_prev = t_ns_;
+    m_.T_world_prev = result.T_world_cam;
+    m_.rs_prev_rectified = m_.rs_frame_rectified;
+    return result;
+  }
+
+ private:
+  // The depth map's time offset, moved by the motion per frame `velocity` over `frame_dt`.
+  void set_depth_time_shift(bool known, const SE3& velocity, TimeNs frame_dt) {
+    const TimeNs offset = depth_t_ns_ != 0 ? depth_t_ns_ - t_ns_ : 0;
+    m_.depth_time_shift = o_.compensate_depth_time_offset && known && frame_dt > 0 && offset != 0 &&
+                          std::llabs(offset) < 100'000'000LL;
+    m_.T_rgb_depth =
+        m_.depth_time_shift
+            ? SE3::exp(static_cast<double>(offset) / static_cast<double>(frame_dt) * velocity.log())
+            : SE3();
+  }
+
+  void build_reference() { TrackerAccess::build_reference(m_, o_, m_.level_cameras); }
+
+  // The first frame (or the first after a reset) defines the world and is the keyframe.
+  TrackResult start_sequence() {
+    TrackResult result;
+    result.t_ns = t_ns_;
+    m_.rs_ref_rectified = m_.rs_frame_rectified;
+    build_reference();
+    m_.ref_t_ns = t_ns_;
+    m_.T_world_ref = SE3();
+    m_.T_world_prev = SE3();
+    m_.t_prev = t_ns_;
+    m_.has_prev = true;
+    m_.has_velocity = false;
     result.converged = true;
-    result.ref_t_ns = t_ns;
+    result.ref_t_ns = t_ns_;
     result.new_keyframe = true;
     result.inlier_ratio = 1.0;
     result.overlap = 1.0;
-    result.points = m.ref[static_cast<std::size_t>(options_.finest_level)].count;
+    result.points = m_.ref[static_cast<std::size_t>(o_.finest_level)].count;
     result.covariance.setZero();
-    if (result.points < options_.min_points) {
+    if (result.points < o_.min_points) {
       result.failure = TrackFailure::kTooFewPoints;
       result.failure_detail = "first frame has " + std::to_string(result.points) +
                               " usable points: the next frame starts again";
-      m.has_prev = false;
+      m_.has_prev = false;
     }
     return result;
   }
 
   // Constant-velocity prediction, scaled to this frame's time step.
-  SE3 T_world_pred = m.T_world_prev;
-  const TimeNs dt = t_ns - m.t_prev;
-  if (options_.constant_velocity_prior && m.has_velocity && m.dt_prev > 0 && dt > 0) {
-    const double scale = std::clamp(static_cast<double>(dt) / static_cast<double>(m.dt_prev), 0.0, 3.0);
-    T_world_pred = m.T_world_prev * SE3::exp(scale * m.velocity.log());
+  SE3 predict() {
+    SE3 T_world_pred = m_.T_world_prev;
+    dt_ = t_ns_ - m_.t_prev;
+    if (o_.constant_velocity_prior && m_.has_velocity && m_.dt_prev > 0 && dt_ > 0) {
+      const double scale =
+          std::clamp(static_cast<double>(dt_) / static_cast<double>(m_.dt_prev), 0.0, 3.0);
+      T_world_pred = m_.T_world_prev * SE3::exp(scale * m_.velocity.log());
+    }
+    return T_world_pred;
   }
-  const SE3 T_ref_guess = m.T_world_ref.inverse() * T_world_pred;
 
-  AlignOutcome a = AlignRunner::align_with_fallback(m, options_, T_ref_guess.inverse());
-  const bool fallback = a.result.geometric_fallback;
-  const TimeNs keyframe_t_ns = m.ref_t_ns;
-  const SE3 T_world_keyframe = m.T_world_ref;
-  bool retried = false;
-  // A failure (typically motion blur against a sharp keyframe) tries the previous frame.
-  if (!a.result.ok() && options_.retry_previous_frame && m.ref_t_ns != m.t_prev) {
-    // The previous frame as the reference (its depth time offset is not kept: none applied).
-    const bool shift = m.depth_time_shift;
-    m.swap_current_and_previous();
-    m.depth_time_shift = false;
-    m.rs_ref_rectified = m.rs_prev_rectified;
-    TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-    m.swap_current_and_previous();
-    m.depth_time_shift = shift;
-    m.T_world_ref = m.T_world_prev;
-    m.ref_t_ns = m.t_prev;
-    const SE3 T_prev_guess = m.T_world_prev.inverse() * T_world_pred;
-    AlignOutcome b =
-        AlignRunner::align(m, options_, T_prev_guess.inverse(), AlignTerms::from(options_));
+  // A failure (typically motion blur against a sharp keyframe) tries the previous frame as the
+  // reference; its result replaces `a` when better. True when it did.
+  bool retry_previous_frame(const SE3& T_world_pred, AlignOutcome& a) {
+    if (a.result.ok() || !o_.retry_previous_frame || m_.ref_t_ns == m_.t_prev) return false;
+    // The previous frame's depth time offset is not kept: none applied.
+    const bool shift = m_.depth_time_shift;
+    m_.swap_current_and_previous();
+    m_.depth_time_shift = false;
+    m_.rs_ref_rectified = m_.rs_prev_rectified;
+    build_reference();
+    m_.swap_current_and_previous();
+    m_.depth_time_shift = shift;
+    m_.T_world_ref = m_.T_world_prev;
+    m_.ref_t_ns = m_.t_prev;
+    const SE3 T_prev_guess = m_.T_world_prev.inverse() * T_world_pred;
+    AlignOutcome b = AlignRunner::align(m_, o_, T_prev_guess.inverse(), AlignTerms::from(o_));
     b.result.iterations += a.result.iterations;
     if (b.result.ok() && (!a.result.ok() || b.result.sigma < a.result.sigma)) {
       a = b;
-      retried = true;
+      return true;
     }
+    return false;
   }
-  result = a.result;
-  result.retried_previous = retried;
-  result.t_ns = t_ns;
-  // The keyframe's alignment stood, but its reference data were replaced by the previous
-  // frame's for the retry: this frame then becomes the keyframe.
-  const bool keyframe_lost = !retried && m.ref_t_ns != keyframe_t_ns;
-  if (keyframe_lost) {
-    m.T_world_ref = T_world_keyframe;
-    m.ref_t_ns = keyframe_t_ns;
-  }
-  // The fallback's rotation from the previous frame (option; docs/odometry.md, "The fallback's
-  // rotation from the previous frame"); the keyframe alignment's translation is kept.
-  if (fallback && result.ok() && options_.fallback_rotation_from_previous_frame) {
-    const SE3 T_prev_cur_guess = m.T_world_prev.inverse() * m.T_world_ref * a.T_cur_ref.inverse();
+
+  // The fallback's rotation from the previous frame (docs/odometry.md, "The fallback's rotation
+  // from the previous frame"); the keyframe alignment's translation is kept.
+  void refine_fallback_rotation(AlignOutcome& a, TrackResult& result) {
+    const SE3 T_prev_cur_guess = m_.T_world_prev.inverse() * m_.T_world_ref * a.T_cur_ref.inverse();
     const std::optional<SE3> T_prev_cur = AlignRunner::align_previous_to_current(
-        m, options_, impl_->level_cameras, T_prev_cur_guess, result.iterations);
+        m_, o_, m_.level_cameras, T_prev_cur_guess, result.iterations);
     if (T_prev_cur) {
       const SE3 refined(T_prev_cur->so3(), T_prev_cur_guess.translation());
-      a.T_cur_ref = (m.T_world_ref.inverse() * m.T_world_prev * refined).inverse();
+      a.T_cur_ref = (m_.T_world_ref.inverse() * m_.T_world_prev * refined).inverse();
       result.fallback_rotation_from_previous = true;
     }
   }
-  result.ref_t_ns = m.ref_t_ns;
-  const SE3 T_ref_cur = a.T_cur_ref.inverse();
 
-  if (result.ok()) {
+  // A tracked frame: its pose, the motion model, and a new keyframe where it leaves the old.
+  void accept(const SE3& T_ref_cur, bool fallback, bool keyframe_lost, TrackResult& result) {
     result.T_ref_cur = T_ref_cur;
-    result.T_world_cam = m.T_world_ref * T_ref_cur;
-    const ReferenceLevel& L = m.ref[static_cast<std::size_t>(options_.finest_level)];
+    result.T_world_cam = m_.T_world_ref * T_ref_cur;
+    const bool rs_restart = rolling_shutter_restart();
+    const bool switch_kf =
+        rs_restart || keyframe_lost || leaves_keyframe(T_ref_cur, fallback, result);
+    m_.velocity = m_.T_world_prev.inverse() * result.T_world_cam;
+    m_.has_velocity = true;
+    if (!switch_kf) return;
+    set_depth_time_shift(true, m_.velocity, dt_);  // with this frame's estimated motion
+    if (rs_restart) {
+      m_.rectify_rolling_shutter(m_.velocity.so3().log() / ns_to_s(dt_), o_);
+      m_.rs_frame_rectified = true;
+    }
+    m_.rs_ref_rectified = m_.rs_frame_rectified;
+    build_reference();
+    m_.T_world_ref = result.T_world_cam;
+    m_.ref_t_ns = t_ns_;
+    result.new_keyframe = true;
+  }
+
+  // Rolling shutter: a keyframe taken before any rate was known (the first frame, or after a
+  // failure) is not rectified, unlike the frames that follow it; so the first frame whose motion
+  // is estimated is rectified with its own rate and becomes the keyframe.
+  [[nodiscard]] bool rolling_shutter_restart() const {
+    return m_.rolling_shutter.has_value() && !m_.rs_ref_rectified && !m_.rs_frame_rectified &&
+           dt_ > 0;
+  }
+
+  // Whether the frame should replace the keyframe: it overlaps or agrees with it too little, or
+  // moved too far from it.
+  [[nodiscard]] bool leaves_keyframe(const SE3& T_ref_cur, bool fallback,
+                                     const TrackResult& result) const {
+    const ReferenceLevel& L = m_.ref[static_cast<std::size_t>(o_.finest_level)];
     // A frame whose images agree with the keyframe's only on a coarser level (the fallback's
     // photometric check) is blurred unlike it: the next frames, blurred alike, are aligned to it
     // (as to a frame that failed).
-    const bool blurred = fallback && result.photometric_level > options_.finest_level;
-    // Rolling shutter: a keyframe taken before any rate was known (the first frame, or after a
-    // failure) is not rectified, unlike the frames that follow it; so the first frame whose
-    // motion is estimated is rectified with its own rate and becomes the keyframe.
-    const bool rs_restart = rolling_shutter && !m.rs_ref_rectified && !m.rs_frame_rectified && dt > 0;
-    const bool switch_kf = rs_restart || blurred ||
-        keyframe_lost || !options_.use_keyframes || result.overlap < options_.keyframe_min_overlap ||
-        rotation_angle_deg(T_ref_cur) > options_.keyframe_max_rotation_deg ||
-        T_ref_cur.translation().norm() > options_.keyframe_max_translation_rel * L.median_depth;
-    m.velocity = m.T_world_prev.inverse() * result.T_world_cam;
-    m.has_velocity = true;
-    if (switch_kf) {
-      set_depth_time_shift(true, m.velocity, dt);  // with this frame's estimated motion
-      if (rs_restart) {
-        m.rectify_rolling_shutter(m.velocity.so3().log() / ns_to_s(dt), options_);
-        m.rs_frame_rectified = true;
-      }
-      m.rs_ref_rectified = m.rs_frame_rectified;
-      TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-      m.T_world_ref = result.T_world_cam;
-      m.ref_t_ns = t_ns;
-      result.new_keyframe = true;
-    }
-  } else {
-    // Report the prediction, and start again from this frame: it becomes the reference.
+    const bool blurred = fallback && result.photometric_level > o_.finest_level;
+    return blurred || !o_.use_keyframes || result.overlap < o_.keyframe_min_overlap ||
+           rotation_angle_deg(T_ref_cur) > o_.keyframe_max_rotation_deg ||
+           T_ref_cur.translation().norm() > o_.keyframe_max_translation_rel * L.median_depth;
+  }
+
+  // Report the prediction, and start again from this frame: it becomes the reference.
+  void restart(const SE3& T_world_pred, TrackResult& result) {
     result.T_world_cam = T_world_pred;
-    result.T_ref_cur = m.T_world_ref.inverse() * T_world_pred;
-    m.rs_ref_rectified = m.rs_frame_rectified;
-    TrackerAccess::build_reference(m, options_, impl_->level_cameras);
-    m.T_world_ref = T_world_pred;
-    m.ref_t_ns = t_ns;
-    m.has_velocity = false;
+    result.T_ref_cur = m_.T_world_ref.inverse() * T_world_pred;
+    m_.rs_ref_rectified = m_.rs_frame_rectified;
+    build_reference();
+    m_.T_world_ref = T_world_pred;
+    m_.ref_t_ns = t_ns_;
+    m_.has_velocity = false;
     result.new_keyframe = true;
   }
-  m.dt_prev = dt;
-  m.t_prev = t_ns;
-  m.T_world_prev = result.T_world_cam;
-  m.rs_prev_rectified = m.rs_frame_rectified;
-  return result;
+
+  DirectTracker::Impl& m_;
+  const DirectTrackerOptions& o_;
+  const TimeNs t_ns_;
+  const TimeNs depth_t_ns_;
+  TimeNs dt_ = 0;
+};
+
+}  // namespace
+
+TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
+  return TrackingStep(*impl_, options_, t_ns, depth_t_ns).run();
 }
 
 template <typename Frame>
