@@ -9,9 +9,7 @@
 // "PEER method=<m> frames=<N> failures=<F> mean_ms=<X> median_ms=<Y>" on stdout, where the time
 // is that of odometry.compute() plus the conversion to gray and the frame preparation.
 #include <Eigen/Dense>
-#include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <iostream>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -19,12 +17,11 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/rgbd.hpp>
 #include <string>
-#include <vector>
 
 #include "kestrel/core/stopwatch.hpp"
 #include "kestrel/io/camera_io.hpp"
-#include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
+#include "peer_support.hpp"
 
 int main(int argc, char** argv) {
   using namespace kestrel;
@@ -54,11 +51,8 @@ int main(int argc, char** argv) {
     } else {
       odometry = cv::rgbd::RgbdICPOdometry::create(K);
     }
-    Trajectory trajectory;
-    std::vector<double> ms;
-    int failures = 0;
+    peer::ChainedRun run;
     cv::Ptr<cv::rgbd::OdometryFrame> prev;
-    Eigen::Matrix4d T_world_prev = Eigen::Matrix4d::Identity();
     for (std::size_t i = 0; i < seq.size(); ++i) {
       const io::RgbdImages im = seq.load(i);
       const auto t0 = std::chrono::steady_clock::now();
@@ -66,39 +60,21 @@ int main(int argc, char** argv) {
       cv::cvtColor(im.bgr, gray, cv::COLOR_BGR2GRAY);
       cv::Mat depth = im.depth_m.clone();
       depth.setTo(std::numeric_limits<float>::quiet_NaN(), depth <= 0.0F);  // OpenCV: NaN = none
-      cv::Ptr<cv::rgbd::OdometryFrame> cur =
-          cv::makePtr<cv::rgbd::OdometryFrame>(gray, depth, cv::Mat(), cv::Mat(), static_cast<int>(i));
-      Eigen::Matrix4d T_world_cur = T_world_prev;
+      cv::Ptr<cv::rgbd::OdometryFrame> cur = cv::makePtr<cv::rgbd::OdometryFrame>(
+          gray, depth, cv::Mat(), cv::Mat(), static_cast<int>(i));
+      Eigen::Matrix4d T_cur_prev;
+      bool ok = false;
       if (prev) {
         cv::Mat Rt;
         // Rt maps points of the source (previous) frame into the destination (current) one.
-        const bool ok = odometry->compute(prev, cur, Rt);
-        if (ok && !Rt.empty()) {
-          Eigen::Matrix4d T_cur_prev;
-          cv::cv2eigen(Rt, T_cur_prev);
-          T_world_cur = T_world_prev * T_cur_prev.inverse();
-        } else {
-          ++failures;  // the pose stays where it was (OpenCV gives no prediction)
-        }
+        ok = odometry->compute(prev, cur, Rt) && !Rt.empty();
+        if (ok) cv::cv2eigen(Rt, T_cur_prev);
+        if (!ok) run.fail();
       }
-      if (prev) ms.push_back(ms_since(t0));
+      run.add(im.t_ns, ok ? &T_cur_prev : nullptr, prev != nullptr, ms_since(t0));
       prev = cur;
-      T_world_prev = T_world_cur;
-      Eigen::Matrix3d R = T_world_cur.topLeftCorner<3, 3>();
-      Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      R = svd.matrixU() * svd.matrixV().transpose();  // re-orthonormalise the accumulated R
-      trajectory.push_back({im.t_ns, SE3(Eigen::Quaterniond(R), T_world_cur.topRightCorner<3, 1>().eval())});
     }
-    io::write_tum_trajectory(argv[3], trajectory, std::string("peer_opencv_odometry ") + method,
-                             true);
-    double mean = 0.0;
-    for (double v : ms) mean += v;
-    mean = ms.empty() ? 0.0 : mean / static_cast<double>(ms.size());
-    std::vector<double> sorted = ms;
-    std::sort(sorted.begin(), sorted.end());
-    const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
-    std::printf("PEER method=%s frames=%zu failures=%d mean_ms=%.3f median_ms=%.3f\n",
-                method.c_str(), seq.size(), failures, mean, median);
+    run.finish(argv[3], std::string("peer_opencv_odometry ") + method, method);
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

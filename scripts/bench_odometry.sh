@@ -1,73 +1,138 @@
 #!/usr/bin/env bash
-# Issue 3's peer comparison: kestrel odometry vs OpenCV contrib RgbdOdometry and RgbdICPOdometry
-# on one TUM RGB-D sequence, each pinned to one core (taskset) and single-threaded, every
-# trajectory evaluated by `kestrel evaluate`. Prints one table.
+# The odometry peer comparison over every sequence we have: `kestrel odometry` (defaults), OpenCV
+# contrib RgbdOdometry and RgbdICPOdometry, and Open3D's RGB-D odometry, each pinned to one core
+# (taskset) and single-threaded, every trajectory evaluated by `kestrel evaluate`. Sequences:
+# every TUM folder in ../shared/data/tum (camera fr1/fr2/fr3 from the folder name) and rendered
+# ones (`kestrel render`, Kinect-like depth noise). Prints a table per sequence and the totals.
 #
-#   scripts/bench_odometry.sh [DATASET_DIR] [BUILD_DIR] [CORE]
-#     DATASET_DIR  default ../shared/data/tum/rgbd_dataset_freiburg1_rpy_part1
-#     BUILD_DIR    default build/release (needs the targets kestrel and peer_opencv_odometry)
-#     CORE         default 0
+#   scripts/bench_odometry.sh [--tum-only] [BUILD_DIR] [CORE]
+#     BUILD_DIR  default build/release (targets kestrel, peer_opencv_odometry and, where Open3D
+#                is installed, peer_open3d_odometry; a missing peer is left out with a note)
+#     CORE       default 0
+#   KESTREL_DATA_DIR overrides ../shared/data.
 #
 # ms/frame is wall-clock time of the tracking alone per frame (kestrel: SUMMARY mean_ms; peers:
-# odometry.compute() and frame preparation). On a machine shared with other jobs wall time is
-# inflated by contention; compare the methods within one run, and use the Google Benchmark CPU
+# their compute call and frame preparation). On a machine shared with other jobs wall time is
+# inflated by contention: compare the methods within one run, and use the Google Benchmark CPU
 # times of kestrel_bench_odometry for kestrel's own kernels.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-data=${1:-../shared/data/tum/rgbd_dataset_freiburg1_rpy_part1}
-build=${2:-build/release}
-core=${3:-0}
-kestrel="$build/apps/kestrel/kestrel"
-[[ -x "$kestrel" ]] || kestrel="$build/kestrel"
-peer="$build/bench/peer_opencv_odometry"
-for exe in "$kestrel" "$peer"; do
-  [[ -x "$exe" ]] || { echo "bench_odometry.sh: missing $exe (build it first)" >&2; exit 1; }
-done
-gt="$data/groundtruth.txt"
-[[ -f "$gt" ]] || { echo "bench_odometry.sh: $gt not found" >&2; exit 1; }
+tum_only=0
+if [[ ${1:-} == --tum-only ]]; then
+  tum_only=1
+  shift
+fi
+build=${1:-build/release}
+core=${2:-0}
+data_dir=${KESTREL_DATA_DIR:-../shared/data}
+kestrel="$build/kestrel"
+opencv_peer="$build/bench/peer_opencv_odometry"
+open3d_peer="$build/bench/peer_open3d_odometry"
+[[ -x "$kestrel" ]] || { echo "bench_odometry.sh: missing $kestrel (build it first)" >&2; exit 1; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 export OMP_NUM_THREADS=1 OPENCV_FOR_THREADS_NUM=1
 
-# evaluate EST -> "ATE RPE_m_s RPE_deg_s" (from the key=value line of `kestrel evaluate`)
+methods=("kestrel odometry (defaults)")
+if [[ -x "$opencv_peer" ]]; then
+  methods+=("OpenCV RgbdOdometry" "OpenCV RgbdICPOdometry")
+else
+  echo "note: $opencv_peer not built (needs OpenCV contrib rgbd): OpenCV rows left out" >&2
+fi
+if [[ -x "$open3d_peer" ]]; then
+  methods+=("Open3D RGB-D odometry")
+else
+  echo "note: $open3d_peer not built (needs libopen3d-dev): Open3D row left out" >&2
+fi
+
+# camera_of FOLDER: fr1/fr2/fr3 from a TUM folder name, else the rendered sequences' fr1.
+camera_of() {
+  case "$1" in
+    *freiburg1*) echo fr1 ;; *freiburg2*) echo fr2 ;; *freiburg3*) echo fr3 ;; *) echo fr1 ;;
+  esac
+}
+
+# evaluate GT EST -> "ATE RPE_m_s RPE_deg_s" (the key=value line of `kestrel evaluate`)
 evaluate() {
-  "$kestrel" evaluate --gt "$gt" --est "$1" > "$tmp/eval.txt" 2>&1 || { cat "$tmp/eval.txt" >&2; exit 1; }
-  local line
-  line=$(grep -E '^ate_rmse_m=' "$tmp/eval.txt" | tail -n 1)
-  sed -E 's/ate_rmse_m=([^ ]+) rpe_trans_m_s=([^ ]+) rpe_rot_deg_s=([^ ]+).*/\1 \2 \3/' <<< "$line"
+  "$kestrel" evaluate --gt "$1" --est "$2" > "$tmp/eval.txt" 2>&1 || { cat "$tmp/eval.txt" >&2; exit 1; }
+  grep -E '^ate_rmse_m=' "$tmp/eval.txt" | tail -n 1 |
+    sed -E 's/ate_rmse_m=([^ ]+) rpe_trans_m_s=([^ ]+) rpe_rot_deg_s=([^ ]+).*/\1 \2 \3/'
 }
 
-rows=()
-# kestrel_row NAME TAG [kestrel odometry flags...]: one table row (the SUMMARY line is the last
-# line on stderr).
-kestrel_row() {
-  local name=$1 tag=$2 summary
-  shift 2
-  taskset -c "$core" "$kestrel" odometry "$data" --out "$tmp/$tag.txt" "$@" > "$tmp/$tag.out" \
-    2> "$tmp/$tag.err"
-  summary=$(tail -n 1 "$tmp/$tag.err")
-  rows+=("$name|$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$summary")|$(sed -E \
-    's/.*failures=([0-9]+).*/\1/' <<< "$summary")|$(evaluate "$tmp/$tag.txt")")
+# run_method METHOD SEQUENCE_DIR OUT -> "frames failures mean_ms"
+run_method() {
+  local method=$1 seq=$2 out=$3 cam summary
+  cam=$(camera_of "$seq")
+  case "$method" in
+    kestrel*)
+      taskset -c "$core" "$kestrel" odometry "$seq" --camera "$cam" --out "$out" \
+        > "$tmp/run.out" 2> "$tmp/run.err" || { cat "$tmp/run.err" >&2; exit 1; }
+      summary=$(grep -E '^SUMMARY' "$tmp/run.err" | tail -n 1) ;;
+    "OpenCV RgbdOdometry") summary=$(taskset -c "$core" "$opencv_peer" rgbd "$seq" "$out" "$cam") ;;
+    "OpenCV RgbdICPOdometry") summary=$(taskset -c "$core" "$opencv_peer" icp "$seq" "$out" "$cam") ;;
+    "Open3D RGB-D odometry") summary=$(taskset -c "$core" "$open3d_peer" "$seq" "$out" "$cam") ;;
+  esac
+  sed -E 's/.*frames=([0-9]+) failures=([0-9]+) mean_ms=([0-9.]+).*/\1 \2 \3/' <<< "$summary"
 }
-kestrel_row "kestrel odometry (defaults)" kestrel
-# The rolling-shutter option at a 20 ms readout (not a default: docs/odometry.md).
-printf 'rolling_shutter_readout_s: 0.02\n' > "$tmp/rs.yaml"
-kestrel_row "kestrel + rolling shutter 20 ms (opt.)" kestrel_rs --config "$tmp/rs.yaml"
 
-for m in rgbd icp; do
-  out=$(taskset -c "$core" "$peer" "$m" "$data" "$tmp/$m.txt")
-  ms=$(sed -E 's/.*mean_ms=([0-9.]+).*/\1/' <<< "$out")
-  fail=$(sed -E 's/.*failures=([0-9]+).*/\1/' <<< "$out")
-  name="OpenCV RgbdOdometry"
-  [[ $m == icp ]] && name="OpenCV RgbdICPOdometry"
-  rows+=("$name|$ms|$fail|$(evaluate "$tmp/$m.txt")")
+sequences=()
+for d in "$data_dir"/tum/rgbd_dataset_*; do
+  [[ -f "$d/groundtruth.txt" ]] && sequences+=("$d")
+done
+if [[ ${#sequences[@]} -eq 0 ]]; then
+  echo "bench_odometry.sh: no TUM folder with groundtruth.txt in $data_dir/tum" >&2
+  exit 1
+fi
+if [[ $tum_only -eq 0 ]]; then
+  # Rendered: a hand-held office sequence (textured) and the low-texture corridor flown forward,
+  # both at 30 Hz with Kinect-like depth noise, on the fr1 camera model.
+  for spec in office:handheld corridor:forward; do
+    scene=${spec%%:*} trajectory=${spec##*:}
+    out="$tmp/rendered_${scene}_${trajectory}"
+    "$kestrel" render --scene "$scene" --trajectory "$trajectory" --camera fr1 --noise kinect \
+      --frames 120 --out "$out" > /dev/null 2>&1 || { echo "render $spec failed" >&2; exit 1; }
+    sequences+=("$out")
+  done
+fi
+
+declare -A total_frames total_failures total_ms total_ate total_rt total_rr
+for m in "${methods[@]}"; do
+  total_frames[$m]=0 total_failures[$m]=0 total_ms[$m]=0 total_ate[$m]=0 total_rt[$m]=0 total_rr[$m]=0
+done
+row_format='| %-30s | %6s | %8s | %8s | %8s | %8s | %9s |\n'
+row_line='|--------------------------------|--------|----------|----------|----------|----------|-----------|'
+
+for seq in "${sequences[@]}"; do
+  echo
+  echo "sequence: $(basename "$seq") (camera $(camera_of "$seq"), core $core, single thread)"
+  # shellcheck disable=SC2059
+  printf "$row_format" method frames failures ms/frame "ATE m" "RPE m/s" "RPE deg/s"
+  echo "$row_line"
+  for m in "${methods[@]}"; do
+    tag=$(tr -c 'a-zA-Z0-9' _ <<< "$m")
+    read -r frames failures ms <<< "$(run_method "$m" "$seq" "$tmp/$tag.txt")"
+    read -r ate rt rr <<< "$(evaluate "$seq/groundtruth.txt" "$tmp/$tag.txt")"
+    printf '| %-30s | %6d | %8d | %8.2f | %8.4f | %8.4f | %9.3f |\n' "$m" "$frames" "$failures" \
+      "$ms" "$ate" "$rt" "$rr"
+    total_frames[$m]=$((total_frames[$m] + frames))
+    total_failures[$m]=$((total_failures[$m] + failures))
+    total_ms[$m]=$(awk -v a="${total_ms[$m]}" -v f="$frames" -v x="$ms" 'BEGIN { print a + f * x }')
+    total_ate[$m]=$(awk -v a="${total_ate[$m]}" -v x="$ate" 'BEGIN { print a + x }')
+    total_rt[$m]=$(awk -v a="${total_rt[$m]}" -v x="$rt" 'BEGIN { print a + x }')
+    total_rr[$m]=$(awk -v a="${total_rr[$m]}" -v x="$rr" 'BEGIN { print a + x }')
+  done
 done
 
-echo "sequence: $data (core $core, single thread)"
-printf '| %-38s | %9s | %8s | %8s | %9s | %9s |\n' method ms/frame failures "ATE m" "RPE m/s" "RPE deg/s"
-printf '|%s|%s|%s|%s|%s|%s|\n' "----------------------------------------" -----------  ---------- ---------- ----------- -----------
-for r in "${rows[@]}"; do
-  IFS='|' read -r name ms fail nums <<< "$r"
-  read -r ate rt rr <<< "$nums"
-  printf '| %-38s | %9.2f | %8d | %8.4f | %9.4f | %9.3f |\n' "$name" "$ms" "$fail" "$ate" "$rt" "$rr"
+n=${#sequences[@]}
+echo
+echo "total over $n sequences (ms/frame over all frames; ATE and RPE: mean over the sequences)"
+# shellcheck disable=SC2059
+printf "$row_format" method frames failures ms/frame "ATE m" "RPE m/s" "RPE deg/s"
+echo "$row_line"
+for m in "${methods[@]}"; do
+  awk -v name="$m" -v f="${total_frames[$m]}" -v fail="${total_failures[$m]}" \
+    -v ms="${total_ms[$m]}" -v ate="${total_ate[$m]}" -v rt="${total_rt[$m]}" \
+    -v rr="${total_rr[$m]}" -v n="$n" \
+    'BEGIN { printf "| %-30s | %6d | %8d | %8.2f | %8.4f | %8.4f | %9.3f |\n",
+             name, f, fail, (f > 0 ? ms / f : 0), ate / n, rt / n, rr / n }'
 done
