@@ -70,6 +70,23 @@ std::optional<DemosaicMethod> parse_demosaic_method(std::string_view name) {
   return std::nullopt;
 }
 
+void parse_option(std::string_view name, BayerPhase& phase) {
+  const auto parsed = parse_bayer_phase(name);
+  if (!parsed) {
+    throw std::invalid_argument("must be GRBG, RGGB, BGGR or GBRG, got '" + std::string(name) +
+                                "'");
+  }
+  phase = *parsed;
+}
+
+void parse_option(std::string_view name, DemosaicMethod& method) {
+  const auto parsed = parse_demosaic_method(name);
+  if (!parsed) {
+    throw std::invalid_argument("must be bilinear or edge-aware, got '" + std::string(name) + "'");
+  }
+  method = *parsed;
+}
+
 int bayer_channel(BayerPhase phase, int x, int y) {
   return channel_of_letter(info(phase).name[tile_index(x, y)]);
 }

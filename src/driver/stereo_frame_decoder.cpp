@@ -1,14 +1,13 @@
 // Splitting packed stereo frames into two Bayer mosaics, demosaicing them, and the inverse.
 #include "kestrel/driver/stereo_frame_decoder.hpp"
 
-#include <yaml-cpp/yaml.h>
-
 #include <array>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::driver {
@@ -30,38 +29,12 @@ std::string StereoDecoderOptions::describe() const {
   return os.str();
 }
 
+std::string StereoDecoderOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
+
 StereoDecoderOptions StereoDecoderOptions::load_yaml(const std::filesystem::path& path) {
-  const YAML::Node root = io::load_yaml_file(path);
-  if (!root.IsMap()) throw InputError(path, "", "must be a map of stereo decoder options");
   StereoDecoderOptions o;
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    try {
-      if (key == "width") {
-        o.width = v.as<int>();
-      } else if (key == "height") {
-        o.height = v.as<int>();
-      } else if (key == "left_byte") {
-        o.left_byte = v.as<int>();
-      } else if (key == "bayer") {
-        const auto s = v.as<std::string>();
-        const auto phase = parse_bayer_phase(s);
-        if (!phase)
-          throw InputError(path, key, "must be GRBG, RGGB, BGGR or GBRG, got '" + s + "'");
-        o.phase = *phase;
-      } else if (key == "demosaic") {
-        const auto s = v.as<std::string>();
-        const auto method = parse_demosaic_method(s);
-        if (!method) throw InputError(path, key, "must be bilinear or edge-aware, got '" + s + "'");
-        o.demosaic = *method;
-      } else {
-        throw InputError(path, key, "is not a stereo decoder option");
-      }
-    } catch (const YAML::Exception& e) {
-      throw InputError(path, key, std::string("bad value: ") + e.what());
-    }
-  }
+  io::option_fields::read_fields(io::load_yaml_map(path, "stereo decoder"), path.string(),
+                                 "stereo decoder", o);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {

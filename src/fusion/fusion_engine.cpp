@@ -1,15 +1,12 @@
 // FusionEngine: buffering, initialisation, gating and dropout bookkeeping around the EKF.
 #include "kestrel/fusion/fusion_engine.hpp"
 
-#include <yaml-cpp/yaml.h>
-
 #include <cmath>
 #include <limits>
-#include <set>
 #include <sstream>
-#include <type_traits>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::fusion {
@@ -30,46 +27,8 @@ bool finite_sample(const io::ImuSample& s) {
 // ---------------------------------------------------------------- options
 
 FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
-  const YAML::Node root = io::load_yaml_file(path);
-  if (!root.IsMap()) throw InputError(path.string() + ": expected a YAML map of fusion options");
   FusionOptions o;
-  const std::vector<std::pair<std::string, double*>> fields = {
-      {"gyroscope_noise_density", &o.noise.gyro_noise},
-      {"gyroscope_random_walk", &o.noise.gyro_walk},
-      {"accelerometer_noise_density", &o.noise.accel_noise},
-      {"accelerometer_random_walk", &o.noise.accel_walk},
-      {"gravity_m_s2", &o.gravity_m_s2},
-      {"gate_probability", &o.gate_probability},
-      {"dropout_timeout_s", &o.dropout_timeout_s},
-      {"max_imu_gap_s", &o.max_imu_gap_s},
-      {"reorder_window_s", &o.reorder_window_s},
-      {"static_init_s", &o.static_init_s},
-      {"static_max_gyro_std_rad_s", &o.static_max_gyro_std_rad_s},
-      {"static_max_accel_std_m_s2", &o.static_max_accel_std_m_s2},
-      {"init_sigma_p_m", &o.init_sigma_p_m},
-      {"init_sigma_roll_pitch_rad", &o.init_sigma_roll_pitch_rad},
-      {"init_sigma_yaw_rad", &o.init_sigma_yaw_rad},
-      {"init_sigma_v_m_s", &o.init_sigma_v_m_s},
-      {"init_sigma_gyro_bias_rad_s", &o.init_sigma_gyro_bias_rad_s},
-      {"init_sigma_accel_bias_m_s2", &o.init_sigma_accel_bias_m_s2}};
-  const std::vector<std::pair<std::string, bool*>> flags = {
-      {"first_estimate_jacobians", &o.first_estimate_jacobians},
-      {"reanchor_after_gate", &o.reanchor_after_gate}};
-  // The key's entry of one table, read with the project's typed YAML conversion.
-  auto read = [&path](const auto& table, const std::string& key, const YAML::Node& value) {
-    for (const auto& [name, ptr] : table) {
-      if (name != key) continue;
-      *ptr = io::yaml_as<std::remove_pointer_t<std::decay_t<decltype(ptr)>>>(value, path, key);
-      return true;
-    }
-    return false;
-  };
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    if (!read(fields, key, kv.second) && !read(flags, key, kv.second)) {
-      throw InputError(path, key, "unknown fusion option");
-    }
-  }
+  io::option_fields::read_fields(io::load_yaml_map(path, "fusion"), path.string(), "fusion", o);
   try {
     o.validate();
   } catch (const InputError& e) {
@@ -77,6 +36,8 @@ FusionOptions FusionOptions::load_yaml(const std::filesystem::path& path) {
   }
   return o;
 }
+
+std::string FusionOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 void FusionOptions::set_imu_noise(const io::ImuNoise& imu) {
   noise.gyro_noise = imu.gyro_noise_density;

@@ -26,4 +26,12 @@ YAML::Node load_yaml_file(const std::filesystem::path& path) {
   }
 }
 
+YAML::Node load_yaml_map(const std::filesystem::path& path, const std::string& what) {
+  YAML::Node root = load_yaml_file(path);
+  if (!root.IsMap()) {
+    throw InputError(path.string() + ": expected a YAML map of " + what + " options");
+  }
+  return root;
+}
+
 }  // namespace kestrel::io

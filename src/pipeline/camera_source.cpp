@@ -4,15 +4,14 @@
 #include <stdexcept>
 #include <utility>
 
-#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::pipeline {
 
 namespace {
 
 namespace fs = std::filesystem;
-using detail::config_field_error;
 
 }  // namespace
 
@@ -22,12 +21,12 @@ CameraFrameSource::CameraFrameSource(const CameraSourceOptions& options, const f
   try {
     camera_ = std::make_unique<driver::V4l2Camera>(options.device, std::move(io));
   } catch (const driver::DeviceError& e) {
-    throw config_field_error(config, "camera.device", e.what());  // e.what() starts with the path
+    throw io::field_error(config, "camera.device", e.what());  // e.what() starts with the path
   }
   try {
     format_ = camera_->configure(options.camera);
   } catch (const driver::DeviceError& e) {
-    throw config_field_error(config, "camera", e.what());  // wrong pixel format or size, busy, ...
+    throw io::field_error(config, "camera", e.what());  // wrong pixel format or size, busy, ...
   }
 }
 
@@ -53,7 +52,7 @@ driver::CaptureReport CameraFrameSource::run(std::size_t max_frames,
   try {
     return driver::capture_stereo(*camera_, format_, decoder_, limits, to_pair, hooks);
   } catch (const driver::DeviceError& e) {
-    throw config_field_error(config_, "camera.device", e.what());  // e.g. no buffers, STREAMON
+    throw io::field_error(config_, "camera.device", e.what());  // e.g. no buffers, STREAMON
   }
 }
 

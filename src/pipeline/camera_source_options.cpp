@@ -6,9 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
-#include "kestrel/driver/bayer.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::pipeline {
@@ -17,12 +16,32 @@ namespace {
 
 namespace fs = std::filesystem;
 
-using detail::path_in_config;
-
 // Field `camera.<key>` (an empty key names the block itself).
 InputError camera_field_error(const fs::path& config, const std::string& key,
                               const std::string& msg) {
-  return detail::config_field_error(config, key.empty() ? "camera" : "camera." + key, msg);
+  return io::field_error(config, key.empty() ? "camera" : "camera." + key, msg);
+}
+
+// The decoder options from their own file, which replaces the block's decoder keys and, being
+// the frame's, gives the size; the block's width/height must then agree with it.
+void load_decoder_file(const YAML::Node& block, const fs::path& config, CameraSourceOptions& o) {
+  for (const char* key : {"left_byte", "bayer", "demosaic"}) {
+    if (block[key]) {
+      throw camera_field_error(config, "decoder_options",
+                               std::string("excludes camera.") + key + " (give one or the other)");
+    }
+  }
+  o.decoder = driver::StereoDecoderOptions::load_yaml(o.decoder_options_file);
+  if ((block["width"] && o.camera.width != o.decoder.width) ||
+      (block["height"] && o.camera.height != o.decoder.height)) {
+    throw camera_field_error(
+        config, "decoder_options",
+        o.decoder_options_file.string() + " is for " + std::to_string(o.decoder.width) + "x" +
+            std::to_string(o.decoder.height) + " frames, camera.width/height say " +
+            std::to_string(o.camera.width) + "x" + std::to_string(o.camera.height));
+  }
+  o.camera.width = o.decoder.width;
+  o.camera.height = o.decoder.height;
 }
 
 }  // namespace
@@ -54,106 +73,47 @@ sensor::StereoCalibration load_camera_calibration(const std::vector<fs::path>& f
                    "is missing (expected Kestrel's `stereo_pair:` map of a raw pair)");
 }
 
-CameraSourceOptions CameraSourceOptions::from_yaml(const YAML::Node& map, const fs::path& config) {
-  if (!map.IsMap()) throw InputError(config, "camera", "must be a map of camera source options");
-  CameraSourceOptions o;
-  std::optional<fs::path> decoder_file;
-  std::vector<std::string> decoder_keys;  // inline decoder options, exclusive with the file
-  bool have_calibration = false, have_width = false, have_height = false;
-  for (const auto& kv : map) {
-    const auto key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    try {
-      if (key == "device") {
-        o.device = v.as<std::string>();
-        if (o.device.empty())
-          throw camera_field_error(config, key, "must name a video device node");
-      } else if (key == "pixel_format") {
-        o.camera.pixel_format = v.as<std::string>();
-      } else if (key == "width") {
-        o.camera.width = v.as<int>();
-        have_width = true;
-      } else if (key == "height") {
-        o.camera.height = v.as<int>();
-        have_height = true;
-      } else if (key == "fps") {
-        o.camera.rate_hz = v.as<double>();
-      } else if (key == "buffers") {
-        o.camera.buffers = v.as<int>();
-      } else if (key == "timeout_s") {
-        o.timeout_s = v.as<double>();
-      } else if (key == "left_byte") {
-        o.decoder.left_byte = v.as<int>();
-        decoder_keys.push_back(key);
-      } else if (key == "bayer") {
-        const auto s = v.as<std::string>();
-        const auto phase = driver::parse_bayer_phase(s);
-        if (!phase)
-          throw camera_field_error(config, key,
-                                   "must be GRBG, RGGB, BGGR or GBRG, got '" + s + "'");
-        o.decoder.phase = *phase;
-        decoder_keys.push_back(key);
-      } else if (key == "demosaic") {
-        const auto s = v.as<std::string>();
-        const auto method = driver::parse_demosaic_method(s);
-        if (!method)
-          throw camera_field_error(config, key, "must be bilinear or edge-aware, got '" + s + "'");
-        o.decoder.demosaic = *method;
-        decoder_keys.push_back(key);
-      } else if (key == "decoder_options") {
-        decoder_file = path_in_config(config, v.as<std::string>());
-      } else if (key == "calibration") {
-        if (v.IsSequence()) {
-          for (const auto& f : v)
-            o.calibration_files.push_back(path_in_config(config, f.as<std::string>()));
-        } else {
-          o.calibration_files.push_back(path_in_config(config, v.as<std::string>()));
-        }
-        have_calibration = true;
-      } else {
-        throw camera_field_error(config, key, "unknown camera source option");
-      }
-    } catch (const YAML::Exception&) {
-      throw camera_field_error(config, key, "has the wrong type");
-    }
+void CalibrationFilesField::read(const YAML::Node& node, std::vector<fs::path>& files) const {
+  files.clear();
+  if (node.IsSequence()) {
+    for (const auto& f : node) files.emplace_back(f.as<std::string>());
+  } else {
+    files.emplace_back(node.as<std::string>());
   }
-  if (decoder_file) {
-    if (!decoder_keys.empty()) {
-      throw camera_field_error(
-          config, "decoder_options",
-          "excludes camera." + decoder_keys.front() + " (give one or the other)");
-    }
-    o.decoder = driver::StereoDecoderOptions::load_yaml(*decoder_file);
-    // The file may carry the size (it is the frame's); the camera block's wins only if it agrees.
-    if ((have_width && o.camera.width != o.decoder.width) ||
-        (have_height && o.camera.height != o.decoder.height)) {
-      throw camera_field_error(
-          config, "decoder_options",
-          decoder_file->string() + " is for " + std::to_string(o.decoder.width) + "x" +
-              std::to_string(o.decoder.height) + " frames, camera.width/height say " +
-              std::to_string(o.camera.width) + "x" + std::to_string(o.camera.height));
-    }
-    o.camera.width = o.decoder.width;
-    o.camera.height = o.decoder.height;
+}
+
+std::string CalibrationFilesField::text(const std::vector<fs::path>& files) const {
+  YAML::Emitter out;
+  out << YAML::Flow << YAML::BeginSeq;
+  for (const auto& f : files) out << f.string();
+  out << YAML::EndSeq;
+  return out.c_str();
+}
+
+void CameraSourceOptions::load_files(const YAML::Node& block, const fs::path& config) {
+  if (!decoder_options_file.empty()) {
+    decoder_options_file = io::path_in_config(config, decoder_options_file);
+    load_decoder_file(block, config, *this);
   }
-  o.decoder.width = o.camera.width;
-  o.decoder.height = o.camera.height;
-  if (!have_calibration) {
+  decoder.width = camera.width;
+  decoder.height = camera.height;
+  if (calibration_files.empty()) {
     throw camera_field_error(
         config, "calibration",
         "missing (the stereo calibration of the camera: Kestrel's stereo_pair YAML, "
         "an EuRoC folder, or [cam0 sensor.yaml, cam1 sensor.yaml])");
   }
+  for (auto& f : calibration_files) f = io::path_in_config(config, f);
   try {
-    o.calibration = load_camera_calibration(o.calibration_files);
+    calibration = load_camera_calibration(calibration_files);
   } catch (const InputError& e) {
     throw camera_field_error(config, "calibration", e.what());
   }
-  o.validate(config);
-  return o;
+  validate(config);
 }
 
 void CameraSourceOptions::validate(const fs::path& config) const {
+  if (device.empty()) throw camera_field_error(config, "device", "must name a video device node");
   try {
     camera.validate();
   } catch (const std::invalid_argument& e) {
@@ -186,5 +146,7 @@ std::string CameraSourceOptions::describe() const {
   for (const auto& f : calibration_files) s << " " << f.string();
   return s.str();
 }
+
+std::string CameraSourceOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 }  // namespace kestrel::pipeline

@@ -1,13 +1,14 @@
 // Loading and checking the `controller:` block of a pipeline config. The control options
-// themselves are read by the control module's own loaders (from_yaml of each section).
+// themselves are the control module's own options tables, one section of the options file each.
 #include "kestrel/pipeline/controller_options.hpp"
 
 #include <cmath>
 #include <sstream>
 
-#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/io/option_fields.hpp"
+#include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::pipeline {
@@ -18,37 +19,37 @@ namespace fs = std::filesystem;
 
 InputError controller_field_error(const fs::path& config, const std::string& key,
                                   const std::string& msg) {
-  return detail::config_field_error(config, "controller." + key, msg);
+  return io::field_error(config, "controller." + key, msg);
 }
 
-// The control options file: its `controller:`, `pwm:` and `safety:` sections (each optional),
-// nothing else, so that a typo in a section name is not silently ignored.
+// The sections of a control options file (each optional), nothing else, so that a typo in a
+// section name is not silently ignored.
+struct ControlSections {
+  control::PositionControllerOptions controller;
+  control::PwmMapperOptions pwm;
+  control::SafetyOptions safety;
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("controller", controller);
+    v("pwm", pwm);
+    v("safety", safety);
+  }
+};
+
 void load_control_file(const fs::path& file, ControllerStageOptions& o) {
-  const YAML::Node root = io::load_yaml_file(file);
-  if (!root.IsMap()) throw InputError(file.string() + ": expected a YAML map of control options");
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    if (key != "controller" && key != "pwm" && key != "safety") {
-      throw InputError(file, key, "is not a control section (controller, pwm, safety)");
-    }
+  ControlSections sections;
+  io::option_fields::read_fields(io::load_yaml_map(file, "control"), file.string(), "control",
+                                 sections);
+  try {
+    sections.controller.validate();
+    sections.pwm.validate();
+    sections.safety.validate();
+  } catch (const InputError& e) {
+    throw InputError(file.string() + ": " + e.what());
   }
-  if (root["controller"]) {
-    o.controller = control::PositionControllerOptions::from_yaml(root["controller"], file.string());
-  }
-  if (root["pwm"]) o.pwm = control::PwmMapperOptions::from_yaml(root["pwm"], file.string());
-  if (root["safety"]) o.safety = control::SafetyOptions::from_yaml(root["safety"], file.string());
-}
-
-std::optional<Eigen::Vector4d> parse_setpoint(const YAML::Node& v) {
-  if (v.IsScalar() && v.as<std::string>() == "hold") return std::nullopt;
-  if (!v.IsSequence() || v.size() != 4) {
-    throw InputError("must be hold or [x_m, y_m, z_m, yaw_deg]");
-  }
-  Eigen::Vector4d p;
-  for (std::size_t i = 0; i < 4; ++i) p[static_cast<int>(i)] = v[i].as<double>();
-  if (!p.allFinite()) throw InputError("must be finite numbers");
-  p[3] *= kDegToRad;
-  return p;
+  o.controller = sections.controller;
+  o.pwm = sections.pwm;
+  o.safety = sections.safety;
 }
 
 Eigen::Vector3d axis_of(const std::string& name) {
@@ -75,51 +76,61 @@ SO3 parse_vehicle_axes(const std::vector<std::string>& axes) {
   return SO3::from_matrix(R);
 }
 
-ControllerStageOptions ControllerStageOptions::from_yaml(const YAML::Node& node,
-                                                         const fs::path& config) {
-  ControllerStageOptions o;
-  if (!node || node.IsNull()) return o;
-  if (!node.IsMap()) throw InputError(config, "controller", "must be a YAML map");
-  for (const auto& kv : node) {
-    const auto key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    try {
-      if (key == "setpoint") {
-        o.setpoint = parse_setpoint(v);
-      } else if (key == "allow_unfused") {
-        o.allow_unfused = v.as<bool>();
-      } else if (key == "vehicle_axes") {
-        o.R_body_vehicle = parse_vehicle_axes(v.as<std::vector<std::string>>());
-      } else if (key == "silence_check_s") {
-        o.silence_check_s = v.as<double>();
-        if (!(o.silence_check_s > 0.0 && o.silence_check_s <= 1.0)) {
-          throw InputError("must be in (0, 1] s");
-        }
-      } else if (key == "controller_options") {
-        o.controller_options_file = detail::path_in_config(config, v.as<std::string>());
-        load_control_file(o.controller_options_file, o);
-      } else if (key == "output") {
-        o.output = v.as<std::string>();
-        if (o.output.empty()) throw InputError("must name a file");
-      } else {
-        throw InputError("unknown controller option");
-      }
-    } catch (const YAML::Exception&) {
-      throw controller_field_error(config, key, "has the wrong type");
-    } catch (const InputError& e) {
-      throw controller_field_error(config, key, e.what());
-    }
+void SetpointField::read(const YAML::Node& node, std::optional<Eigen::Vector4d>& setpoint) const {
+  if (node.IsScalar() && node.as<std::string>() == "hold") {
+    setpoint.reset();
+    return;
   }
-  o.validate();
-  return o;
+  if (!node.IsSequence() || node.size() != 4) {
+    throw InputError("must be hold or [x_m, y_m, z_m, yaw_deg]");
+  }
+  Eigen::Vector4d p;
+  for (std::size_t i = 0; i < 4; ++i) p[static_cast<int>(i)] = node[i].as<double>();
+  if (!p.allFinite()) throw InputError("must be finite numbers");
+  p[3] *= kDegToRad;
+  setpoint = p;
+}
+
+std::string SetpointField::text(const std::optional<Eigen::Vector4d>& setpoint) const {
+  if (!setpoint) return "hold";
+  const Eigen::Vector4d& p = *setpoint;
+  return "[" + io::format_double(p[0]) + ", " + io::format_double(p[1]) + ", " +
+         io::format_double(p[2]) + ", " + io::format_double(p[3] / kDegToRad) + "]";
+}
+
+void VehicleAxesField::read(const YAML::Node& node, SO3& R_body_vehicle) const {
+  R_body_vehicle = parse_vehicle_axes(node.as<std::vector<std::string>>());
+}
+
+std::string VehicleAxesField::text(const SO3& R_body_vehicle) const {
+  const Eigen::Matrix3d R = R_body_vehicle.matrix();
+  std::string s = "[";
+  for (int c = 0; c < 3; ++c) {
+    Eigen::Index axis = 0;
+    R.col(c).cwiseAbs().maxCoeff(&axis);
+    s += std::string(c ? ", " : "") + (R(axis, c) < 0 ? "-" : "+") + static_cast<char>('x' + axis);
+  }
+  return s + "]";
+}
+
+void ControllerStageOptions::load_files(const fs::path& config) {
+  if (controller_options_file.empty()) return;
+  controller_options_file = io::path_in_config(config, controller_options_file);
+  try {
+    load_control_file(controller_options_file, *this);
+  } catch (const InputError& e) {
+    throw controller_field_error(config, "controller_options", e.what());
+  }
 }
 
 void ControllerStageOptions::validate() const {
   controller.validate();
   pwm.validate();
   safety.validate();
-  if (!(silence_check_s > 0.0)) throw InputError("controller.silence_check_s must be positive");
-  if (output.empty()) throw InputError("controller.output must name a file");
+  if (!(silence_check_s > 0.0 && silence_check_s <= 1.0)) {
+    throw InputError("field 'controller.silence_check_s': must be in (0, 1] s");
+  }
+  if (output.empty()) throw InputError("field 'controller.output': must name a file");
 }
 
 std::string ControllerStageOptions::describe() const {
@@ -136,5 +147,7 @@ std::string ControllerStageOptions::describe() const {
     << " mass_kg=" << controller.mass_kg << " output=" << output.string();
   return s.str();
 }
+
+std::string ControllerStageOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 }  // namespace kestrel::pipeline

@@ -1,11 +1,11 @@
 // Loading and checking the pipeline's config YAML.
 #include "kestrel/pipeline/pipeline_options.hpp"
 
-#include <optional>
 #include <sstream>
+#include <stdexcept>
 
-#include "config_fields.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::pipeline {
@@ -14,109 +14,89 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path config_path(const fs::path& config, const YAML::Node& value) {
-  return detail::path_in_config(config, value.as<std::string>());
+// The keys of the other source are errors, not ignored.
+void check_source_keys(const YAML::Node& root, const fs::path& path, const PipelineOptions& o) {
+  if (o.source == Source::kFolder) {
+    if (root["camera"]) {
+      throw InputError(path, "camera", "is for source: camera (this config reads a folder)");
+    }
+    if (o.input.empty()) throw InputError(path, "input", "missing (the EuRoC folder to run on)");
+    return;
+  }
+  if (!o.input.empty()) {
+    throw InputError(path, "input", "is for source: folder (a camera source reads camera.device)");
+  }
+  if (root["pace"]) {
+    throw InputError(path, "pace", "is for source: folder (a camera delivers at its own rate)");
+  }
+  if (!root["camera"]) {
+    throw InputError(path, "camera",
+                     "missing (source: camera needs a camera block with its calibration)");
+  }
 }
 
-std::size_t positive_size(const fs::path& config, const std::string& key, const YAML::Node& v) {
-  const long long n = v.as<long long>();
-  if (n < 1) throw InputError(config, key, "must be at least 1, got " + std::to_string(n));
-  return static_cast<std::size_t>(n);
+// Takes `file` from the config's folder; false when the config names none.
+bool resolve(const fs::path& config, fs::path& file) {
+  if (file.empty()) return false;
+  file = io::path_in_config(config, file);
+  return true;
+}
+
+// The files a config names, relative to its folder: the input, the option files, and those of
+// the controller and camera blocks.
+void load_named_files(const YAML::Node& root, const fs::path& path, PipelineOptions& o) {
+  resolve(path, o.input);
+  if (resolve(path, o.matcher_options_file)) {
+    o.matcher = sensor::BlockMatcherOptions::load_yaml(o.matcher_options_file);
+  }
+  if (resolve(path, o.tracker_options_file)) {
+    if (root["tracker"]) {
+      throw InputError(path, "tracker", "excludes tracker_options (give one or the other)");
+    }
+    o.tracker = odometry::DirectTrackerOptions::load(o.tracker_options_file);
+  }
+  if (resolve(path, o.fusion_options_file)) {
+    o.fusion = fusion::FusionOptions::load_yaml(o.fusion_options_file);
+  }
+  o.controller.load_files(path);
+  if (o.source == Source::kCamera) o.camera.load_files(root["camera"], path);
 }
 
 }  // namespace
 
+std::string_view to_string(Pace pace) { return pace == Pace::kFast ? "fast" : "recorded"; }
+
+std::string_view to_string(Source source) {
+  return source == Source::kFolder ? "folder" : "camera";
+}
+
+void parse_option(std::string_view name, Pace& pace) {
+  if (name == "fast") {
+    pace = Pace::kFast;
+  } else if (name == "recorded") {
+    pace = Pace::kRecorded;
+  } else {
+    throw std::invalid_argument("must be fast or recorded, got '" + std::string(name) + "'");
+  }
+}
+
+void parse_option(std::string_view name, Source& source) {
+  if (name == "folder") {
+    source = Source::kFolder;
+  } else if (name == "camera") {
+    source = Source::kCamera;
+  } else {
+    throw std::invalid_argument("must be folder or camera, got '" + std::string(name) + "'");
+  }
+}
+
 PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
-  const YAML::Node root = io::load_yaml_file(path);
-  if (!root.IsMap()) throw InputError(path.string() + ": expected a YAML map of pipeline options");
+  const YAML::Node root = io::load_yaml_map(path, "pipeline");
   PipelineOptions o;
   o.config_file = path;
-  bool have_input = false, have_pace = false;
-  std::optional<YAML::Node> camera;  // parsed after the loop, once `source` is known
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    try {
-      if (key == "source") {
-        const auto s = v.as<std::string>();
-        if (s == "folder")
-          o.source = Source::kFolder;
-        else if (s == "camera")
-          o.source = Source::kCamera;
-        else
-          throw InputError(path, key, "must be folder or camera, got '" + s + "'");
-      } else if (key == "camera") {
-        camera = v;
-      } else if (key == "input") {
-        o.input = config_path(path, v);
-        have_input = true;
-      } else if (key == "pace") {
-        have_pace = true;
-        const auto s = v.as<std::string>();
-        if (s == "fast")
-          o.pace = Pace::kFast;
-        else if (s == "recorded")
-          o.pace = Pace::kRecorded;
-        else
-          throw InputError(path, key, "must be fast or recorded, got '" + s + "'");
-      } else if (key == "drop_stale") {
-        o.drop_stale = v.as<bool>();
-      } else if (key == "frame_queue_capacity") {
-        o.frame_queue_capacity = positive_size(path, key, v);
-      } else if (key == "fusion_queue_capacity") {
-        o.fusion_queue_capacity = positive_size(path, key, v);
-      } else if (key == "state_queue_capacity") {
-        o.state_queue_capacity = positive_size(path, key, v);
-      } else if (key == "max_frames") {
-        const long long n = v.as<long long>();
-        if (n < 0) throw InputError(path, key, "must be 0 (all) or positive");
-        o.max_frames = static_cast<std::size_t>(n);
-      } else if (key == "vo_covariance_scale") {
-        o.vo_covariance_scale = v.as<double>();
-        if (!(o.vo_covariance_scale > 0.0)) throw InputError(path, key, "must be positive");
-      } else if (key == "vo_reference") {
-        try {
-          o.vo_reference = fusion::parse_odometry_reference(v.as<std::string>());
-        } catch (const std::invalid_argument& e) {
-          throw InputError(path, key, e.what());
-        }
-      } else if (key == "output") {
-        o.output = v.as<std::string>();
-      } else if (key == "matcher_options") {
-        o.matcher = sensor::BlockMatcherOptions::load_yaml(config_path(path, v));
-      } else if (key == "tracker_options") {
-        o.tracker = odometry::DirectTrackerOptions::load(config_path(path, v));
-      } else if (key == "tracker") {
-        o.tracker = odometry::DirectTrackerOptions::from_yaml(v, path.string() + ": tracker");
-      } else if (key == "controller") {
-        o.controller = ControllerStageOptions::from_yaml(v, path);
-      } else if (key == "fusion_options") {
-        o.fusion = fusion::FusionOptions::load_yaml(config_path(path, v));
-      } else {
-        throw InputError(path, key, "unknown pipeline option");
-      }
-    } catch (const YAML::Exception&) {
-      throw InputError(path, key, "has the wrong type");
-    }
-  }
-  if (o.source == Source::kFolder) {
-    if (camera)
-      throw InputError(path, "camera", "is for source: camera (this config reads a folder)");
-    if (!have_input) throw InputError(path, "input", "missing (the EuRoC folder to run on)");
-  } else {
-    if (have_input) {
-      throw InputError(path, "input",
-                       "is for source: folder (a camera source reads camera.device)");
-    }
-    if (have_pace) {
-      throw InputError(path, "pace", "is for source: folder (a camera delivers at its own rate)");
-    }
-    if (!camera) {
-      throw InputError(path, "camera",
-                       "missing (source: camera needs a camera block with its calibration)");
-    }
-    o.camera = CameraSourceOptions::from_yaml(*camera, path);
-  }
+  io::option_fields::read_fields(root, path.string(), "pipeline", o);
+  check_source_keys(root, path, o);
+  load_named_files(root, path, o);
   try {
     o.validate();
   } catch (const InputError& e) {
@@ -127,13 +107,21 @@ PipelineOptions PipelineOptions::load_yaml(const fs::path& path) {
 
 void PipelineOptions::validate() const {
   if (source == Source::kCamera) camera.validate(config_file);
-  if (frame_queue_capacity < 1 || fusion_queue_capacity < 1 || state_queue_capacity < 1) {
-    throw InputError("queue capacities must be at least 1");
+  const auto at_least_one = [](std::size_t n, const char* field) {
+    if (n < 1) throw InputError(std::string("field '") + field + "': must be at least 1, got 0");
+  };
+  at_least_one(frame_queue_capacity, "frame_queue_capacity");
+  at_least_one(fusion_queue_capacity, "fusion_queue_capacity");
+  at_least_one(state_queue_capacity, "state_queue_capacity");
+  if (!(vo_covariance_scale > 0.0)) {
+    throw InputError("field 'vo_covariance_scale': must be positive");
   }
-  if (!(vo_covariance_scale > 0.0)) throw InputError("vo_covariance_scale must be positive");
-  if (output.empty()) throw InputError("output must name a file");
+  if (output.empty()) throw InputError("field 'output': must name a file");
+  tracker.validate();
   controller.validate();
-  if (controller.output == output) throw InputError("controller.output must differ from output");
+  if (controller.output == output) {
+    throw InputError("field 'controller.output': must differ from output");
+  }
 }
 
 std::string PipelineOptions::describe() const {
@@ -141,7 +129,7 @@ std::string PipelineOptions::describe() const {
   if (source == Source::kCamera) {
     s << "source=camera (" << camera.describe() << ")";
   } else {
-    s << "input=" << input.string() << " pace=" << (pace == Pace::kFast ? "fast" : "recorded");
+    s << "input=" << input.string() << " pace=" << to_string(pace);
   }
   s << " drop_stale=" << (drops() ? "true" : "false") << " queues frame=" << frame_queue_capacity
     << " fusion=" << fusion_queue_capacity << " state=" << state_queue_capacity
@@ -150,5 +138,7 @@ std::string PipelineOptions::describe() const {
     << " output=" << output.string() << "\n  controller: " << controller.describe();
   return s.str();
 }
+
+std::string PipelineOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 }  // namespace kestrel::pipeline

@@ -5,20 +5,18 @@
 // increasing: right index = left column + lane. Optimisation notes: docs/stereo.md.
 #include "kestrel/sensor/block_matcher.hpp"
 
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
 
-#include <opencv2/imgproc.hpp>
-
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 #if defined(__AVX2__)
@@ -131,13 +129,38 @@ inline void slide_sad_column(std::uint16_t* colsum, std::uint8_t ln, const std::
 
 inline int clampi(int v, int lo, int hi) { return std::min(std::max(v, lo), hi); }
 
-const char* cost_name(MatchingCost c) { return c == MatchingCost::kSad ? "sad" : "census"; }
-const char* prefilter_name(Prefilter p) { return p == Prefilter::kNone ? "none" : "xsobel"; }
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
 // Options
+
+std::string_view to_string(MatchingCost cost) {
+  return cost == MatchingCost::kSad ? "sad" : "census";
+}
+
+std::string_view to_string(Prefilter prefilter) {
+  return prefilter == Prefilter::kNone ? "none" : "xsobel";
+}
+
+void parse_option(std::string_view name, MatchingCost& cost) {
+  if (name == "sad") {
+    cost = MatchingCost::kSad;
+  } else if (name == "census") {
+    cost = MatchingCost::kCensus;
+  } else {
+    throw std::invalid_argument("must be sad or census, got '" + std::string(name) + "'");
+  }
+}
+
+void parse_option(std::string_view name, Prefilter& prefilter) {
+  if (name == "none") {
+    prefilter = Prefilter::kNone;
+  } else if (name == "xsobel") {
+    prefilter = Prefilter::kXSobel;
+  } else {
+    throw std::invalid_argument("must be none or xsobel, got '" + std::string(name) + "'");
+  }
+}
 
 int BlockMatcherOptions::max_pixel_cost() const {
   if (cost == MatchingCost::kCensus) return census_window * census_window - 1;
@@ -164,9 +187,9 @@ void BlockMatcherOptions::validate() const {
     fail("census_window must be 3, 5 or 7, got " + std::to_string(census_window));
   }
   if (static_cast<long>(block_size) * block_size * max_pixel_cost() > 65535) {
-    fail("block_size " + std::to_string(block_size) + " is too large for " + cost_name(cost) +
-         " with prefilter " + prefilter_name(prefilter) + ": block_size^2 * " +
-         std::to_string(max_pixel_cost()) + " must stay below 65536");
+    fail("block_size " + std::to_string(block_size) + " is too large for " +
+         std::string(to_string(cost)) + " with prefilter " + std::string(to_string(prefilter)) +
+         ": block_size^2 * " + std::to_string(max_pixel_cost()) + " must stay below 65536");
   }
   if (uniqueness_ratio < 0 || uniqueness_ratio > 100) {
     fail("uniqueness_ratio must lie in [0, 100], got " + std::to_string(uniqueness_ratio));
@@ -180,9 +203,9 @@ void BlockMatcherOptions::validate() const {
 std::string BlockMatcherOptions::describe() const {
   std::ostringstream os;
   os << "disparity=[" << min_disparity << "," << max_disparity << ") block=" << block_size
-     << " cost=" << cost_name(cost);
+     << " cost=" << to_string(cost);
   if (cost == MatchingCost::kSad) {
-    os << " prefilter=" << prefilter_name(prefilter);
+    os << " prefilter=" << to_string(prefilter);
     if (prefilter == Prefilter::kXSobel) os << "(cap " << prefilter_cap << ")";
   } else {
     os << " census_window=" << census_window;
@@ -193,42 +216,12 @@ std::string BlockMatcherOptions::describe() const {
   return os.str();
 }
 
+std::string BlockMatcherOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
+
 BlockMatcherOptions BlockMatcherOptions::load_yaml(const std::filesystem::path& path) {
-  const YAML::Node root = io::load_yaml_file(path);
-  if (!root.IsMap()) throw InputError(path, "", "must be a map of block matcher options");
   BlockMatcherOptions o;
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    try {
-      if (key == "min_disparity") o.min_disparity = v.as<int>();
-      else if (key == "max_disparity") o.max_disparity = v.as<int>();
-      else if (key == "block_size") o.block_size = v.as<int>();
-      else if (key == "prefilter_cap") o.prefilter_cap = v.as<int>();
-      else if (key == "census_window") o.census_window = v.as<int>();
-      else if (key == "subpixel") o.subpixel = v.as<bool>();
-      else if (key == "lr_max_diff") o.lr_max_diff = v.as<int>();
-      else if (key == "uniqueness_ratio") o.uniqueness_ratio = v.as<int>();
-      else if (key == "texture_threshold") o.texture_threshold = v.as<double>();
-      else if (key == "min_depth_m") o.min_depth_m = v.as<double>();
-      else if (key == "max_depth_m") o.max_depth_m = v.as<double>();
-      else if (key == "cost") {
-        const auto s = v.as<std::string>();
-        if (s == "sad") o.cost = MatchingCost::kSad;
-        else if (s == "census") o.cost = MatchingCost::kCensus;
-        else throw InputError(path, key, "must be sad or census, got '" + s + "'");
-      } else if (key == "prefilter") {
-        const auto s = v.as<std::string>();
-        if (s == "none") o.prefilter = Prefilter::kNone;
-        else if (s == "xsobel") o.prefilter = Prefilter::kXSobel;
-        else throw InputError(path, key, "must be none or xsobel, got '" + s + "'");
-      } else {
-        throw InputError(path, key, "is not a block matcher option");
-      }
-    } catch (const YAML::Exception&) {
-      throw InputError(path, key, "has the wrong type");
-    }
-  }
+  io::option_fields::read_fields(io::load_yaml_map(path, "block matcher"), path.string(),
+                                 "block matcher", o);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {

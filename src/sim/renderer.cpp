@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::sim {
@@ -143,32 +144,11 @@ std::string RenderOptions::describe() const {
   return os.str();
 }
 
+std::string RenderOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
+
 RenderOptions RenderOptions::load_yaml(const std::filesystem::path& path) {
-  const YAML::Node root = io::load_yaml_file(path);
   RenderOptions o;
-  if (!root.IsMap()) throw InputError(path, "(root)", "expected a map of render options");
-  for (const auto& kv : root) {
-    const auto key = kv.first.as<std::string>();
-    try {
-      if (key == "near_m") {
-        o.near_m = kv.second.as<double>();
-      } else if (key == "far_m") {
-        o.far_m = kv.second.as<double>();
-      } else if (key == "edge_supersampling") {
-        o.edge_supersampling = kv.second.as<int>();
-      } else if (key == "mipmapping") {
-        o.mipmapping = kv.second.as<bool>();
-      } else if (key == "noise") {
-        o.noise = SensorNoiseOptions::from_yaml(kv.second, path, "noise.");
-      } else {
-        throw InputError(path, key,
-                         "unknown key (expected near_m, far_m, edge_supersampling, mipmapping, "
-                         "noise)");
-      }
-    } catch (const YAML::Exception& e) {
-      throw InputError(path, key, std::string("bad value: ") + e.what());
-    }
-  }
+  io::option_fields::read_fields(io::load_yaml_map(path, "render"), path.string(), "render", o);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {

@@ -7,14 +7,13 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
-#include <functional>
-#include <map>
 #include <sstream>
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/random.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
@@ -84,27 +83,6 @@ class Ziggurat {
   double fn_[128]{};
 };
 
-/// The fields by name, for YAML load/save.
-std::map<std::string, double SensorNoiseOptions::*> fields() {
-  return {{"depth_sigma_a_m", &SensorNoiseOptions::depth_sigma_a_m},
-          {"depth_sigma_b_per_m", &SensorNoiseOptions::depth_sigma_b_per_m},
-          {"depth_sigma_z0_m", &SensorNoiseOptions::depth_sigma_z0_m},
-          {"inverse_depth_step_per_m", &SensorNoiseOptions::inverse_depth_step_per_m},
-          {"missing_probability", &SensorNoiseOptions::missing_probability},
-          {"max_incidence_deg", &SensorNoiseOptions::max_incidence_deg},
-          {"min_range_m", &SensorNoiseOptions::min_range_m},
-          {"max_range_m", &SensorNoiseOptions::max_range_m},
-          {"intensity_sigma", &SensorNoiseOptions::intensity_sigma}};
-}
-
-std::string yaml_number(double v) {
-  if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
 }  // namespace
 
 SensorNoiseOptions SensorNoiseOptions::kinect() {
@@ -135,26 +113,7 @@ SensorNoiseOptions SensorNoiseOptions::from_yaml(const YAML::Node& node,
                                                  const std::filesystem::path& file,
                                                  const std::string& field_prefix) {
   SensorNoiseOptions o;
-  if (node.IsNull()) return o;
-  if (!node.IsMap()) {
-    throw InputError(file, field_prefix.empty() ? "(root)" : field_prefix,
-                     "expected a map of noise options");
-  }
-  const auto by_name = fields();
-  for (const auto& kv : node) {
-    const auto key = kv.first.as<std::string>();
-    const auto it = by_name.find(key);
-    if (it == by_name.end()) {
-      std::string valid;
-      for (const auto& [name, member] : by_name) valid += (valid.empty() ? "" : ", ") + name;
-      throw InputError(file, field_prefix + key, "unknown key (expected one of " + valid + ")");
-    }
-    try {
-      o.*(it->second) = kv.second.as<double>();
-    } catch (const YAML::Exception&) {
-      throw InputError(file, field_prefix + key, "is not a number");
-    }
-  }
+  io::option_fields::read_fields(node, file.string(), "sensor noise", o, field_prefix);
   try {
     o.validate();
   } catch (const std::invalid_argument& e) {
@@ -167,14 +126,15 @@ SensorNoiseOptions SensorNoiseOptions::load_yaml(const std::filesystem::path& pa
   return from_yaml(io::load_yaml_file(path), path);
 }
 
+std::string SensorNoiseOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
+
 void SensorNoiseOptions::save_yaml(const std::filesystem::path& path, std::string_view command,
                                    bool force) const {
   io::check_can_write_file(path, command, force);
   std::ofstream out(path);
   out << io::provenance_line(command)
-      << "\n# sensor noise model (kestrel::sim::SensorNoiseOptions)\n";
-  for (const auto& [name, member] : fields())
-    out << name << ": " << yaml_number(this->*member) << "\n";
+      << "\n# sensor noise model (kestrel::sim::SensorNoiseOptions)\n"
+      << to_yaml();
   if (!out) throw InputError(path.string() + ": cannot write");
 }
 

@@ -10,6 +10,7 @@
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/driver/stereo_frame_decoder.hpp"
+#include "kestrel/io/option_fields.hpp"
 #include "stereo_test_frames.hpp"
 #include "test_data.hpp"
 
@@ -253,6 +254,27 @@ TEST(StereoDecoderOptions, LoadsYamlAndNamesBadFields) {
   expect_error("gain: 2\n", "field 'gain'");
   expect_error("width: wide\n", "field 'width'");
   expect_error("left_byte: 3\n", "left_byte");
+  expect_error("", "expected a YAML map of stereo decoder options");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(StereoDecoderOptions, PrintedOptionsLoadBack) {
+  const std::string defaults = StereoDecoderOptions{}.to_yaml();
+  EXPECT_EQ(defaults, "width: 752\nheight: 480\nleft_byte: 0\nbayer: GRBG\ndemosaic: bilinear\n");
+  StereoDecoderOptions back;
+  back.phase = BayerPhase::kBGGR;
+  back.left_byte = 1;
+  kestrel::io::option_fields::read_fields(YAML::Load(defaults), "decoder.yaml", "stereo decoder",
+                                          back);
+  EXPECT_EQ(back.to_yaml(), defaults);
+
+  const auto dir = kestrel::test::fresh_temp_dir("decoder_yaml");
+  StereoDecoderOptions o;
+  o.width = 376;
+  o.phase = BayerPhase::kGBRG;
+  o.demosaic = DemosaicMethod::kEdgeAware;
+  std::ofstream(dir / "o.yaml") << o.to_yaml();
+  EXPECT_EQ(StereoDecoderOptions::load_yaml(dir / "o.yaml").to_yaml(), o.to_yaml());
   std::filesystem::remove_all(dir);
 }
 

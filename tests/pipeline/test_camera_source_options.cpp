@@ -117,7 +117,8 @@ TEST_F(CameraSourceConfig, DecoderOptionsFileGivesTheDecoderAndTheSize) {
 
 TEST_F(CameraSourceConfig, BadFieldsNameTheFileAndField) {
   expect_error(write_text(dir_ / "a.yaml", "source: webcam\n"), "source", "'webcam'");
-  expect_error(config("  exposure: 3\n", "", "b.yaml"), "camera.exposure", "unknown");
+  expect_error(config("  exposure: 3\n", "", "b.yaml"), "camera.exposure",
+               "is not a pipeline option");
   expect_error(config("  bayer: XYZW\n", "", "c.yaml"), "camera.bayer", "'XYZW'");
   expect_error(config("  demosaic: nearest\n", "", "d.yaml"), "camera.demosaic", "'nearest'");
   expect_error(config("  width: wide\n", "", "e.yaml"), "camera.width", "wrong type");

@@ -27,6 +27,16 @@ enum class DemosaicMethod {
 [[nodiscard]] std::string_view demosaic_method_name(DemosaicMethod method);
 /// "bilinear" or "edge-aware".
 [[nodiscard]] std::optional<DemosaicMethod> parse_demosaic_method(std::string_view name);
+/// The options-table hooks (io/option_fields.hpp); parse_option throws std::invalid_argument
+/// listing the names.
+[[nodiscard]] inline std::string_view to_string(BayerPhase phase) {
+  return bayer_phase_name(phase);
+}
+[[nodiscard]] inline std::string_view to_string(DemosaicMethod method) {
+  return demosaic_method_name(method);
+}
+void parse_option(std::string_view name, BayerPhase& phase);
+void parse_option(std::string_view name, DemosaicMethod& method);
 
 /// BGR channel (0 = B, 1 = G, 2 = R) behind the filter at pixel (x, y).
 [[nodiscard]] int bayer_channel(BayerPhase phase, int x, int y);

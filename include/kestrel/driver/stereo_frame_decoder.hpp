@@ -30,9 +30,20 @@ struct StereoDecoderOptions {
   BayerPhase phase = BayerPhase::kGRBG;
   DemosaicMethod demosaic = DemosaicMethod::kBilinear;
 
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("width", width);
+    v("height", height);
+    v("left_byte", left_byte);
+    v("bayer", phase);
+    v("demosaic", demosaic);
+  }
+
   /// Throws std::invalid_argument naming the bad field.
   void validate() const;
   [[nodiscard]] std::string describe() const;
+  /// The YAML fields, as load_yaml() reads them.
+  [[nodiscard]] std::string to_yaml() const;
   /// YAML map with any of: width, height, left_byte, bayer (GRBG|RGGB|BGGR|GBRG),
   /// demosaic (bilinear|edge-aware); unknown keys are errors naming the file and field.
   static StereoDecoderOptions load_yaml(const std::filesystem::path& path);

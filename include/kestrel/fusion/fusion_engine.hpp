@@ -56,12 +56,40 @@ struct FusionOptions {
   /// it gated; a single outlier is only rejected.
   bool reanchor_after_gate = true;
 
+  /// The YAML fields (io/option_fields.hpp). The noise densities carry the EuRoC sensor.yaml
+  /// names; T_body_cam is a calibration, not an option, and is not among them.
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("gyroscope_noise_density", noise.gyro_noise);
+    v("gyroscope_random_walk", noise.gyro_walk);
+    v("accelerometer_noise_density", noise.accel_noise);
+    v("accelerometer_random_walk", noise.accel_walk);
+    v("gravity_m_s2", gravity_m_s2);
+    v("gate_probability", gate_probability);
+    v("dropout_timeout_s", dropout_timeout_s);
+    v("max_imu_gap_s", max_imu_gap_s);
+    v("reorder_window_s", reorder_window_s);
+    v("static_init_s", static_init_s);
+    v("static_max_gyro_std_rad_s", static_max_gyro_std_rad_s);
+    v("static_max_accel_std_m_s2", static_max_accel_std_m_s2);
+    v("init_sigma_p_m", init_sigma_p_m);
+    v("init_sigma_roll_pitch_rad", init_sigma_roll_pitch_rad);
+    v("init_sigma_yaw_rad", init_sigma_yaw_rad);
+    v("init_sigma_v_m_s", init_sigma_v_m_s);
+    v("init_sigma_gyro_bias_rad_s", init_sigma_gyro_bias_rad_s);
+    v("init_sigma_accel_bias_m_s2", init_sigma_accel_bias_m_s2);
+    v("first_estimate_jacobians", first_estimate_jacobians);
+    v("reanchor_after_gate", reanchor_after_gate);
+  }
+
   /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
   static FusionOptions load_yaml(const std::filesystem::path& path);
   /// Takes the noise densities and T_BS-free fields of an EuRoC IMU sensor.yaml.
   void set_imu_noise(const io::ImuNoise& imu);
   /// One line for logs.
   [[nodiscard]] std::string describe() const;
+  /// The YAML fields, as load_yaml() reads them.
+  [[nodiscard]] std::string to_yaml() const;
   /// Throws InputError for non-positive densities and similar impossible values.
   void validate() const;
   [[nodiscard]] Matrix15d initial_covariance() const;

@@ -24,6 +24,13 @@ enum class OdometryReference { kKeyframe, kPreviousFrame };
 std::string_view odometry_reference_name(OdometryReference reference);
 /// The inverse of odometry_reference_name(); throws std::invalid_argument listing the names.
 OdometryReference parse_odometry_reference(std::string_view name);
+/// The options-table hooks (io/option_fields.hpp).
+inline std::string_view to_string(OdometryReference reference) {
+  return odometry_reference_name(reference);
+}
+inline void parse_option(std::string_view name, OdometryReference& reference) {
+  reference = parse_odometry_reference(name);
+}
 
 /// `Track` is odometry::TrackResult or anything with its fields (ok(), t_ns, ref_t_ns,
 /// T_ref_cur, T_world_cam, covariance, new_keyframe): a template, so that fusion does not

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "kestrel/control/position_controller.hpp"
 #include "kestrel/control/pwm_mapper.hpp"
@@ -16,6 +17,21 @@
 #include "kestrel/geometry/so3.hpp"
 
 namespace kestrel::pipeline {
+
+/// `setpoint:` as the options table reads and prints it: `hold` (none) or [x_m, y_m, z_m,
+/// yaw_deg], the yaw in degrees in the file and in radians in the options.
+struct SetpointField {
+  void read(const YAML::Node& node, std::optional<Eigen::Vector4d>& setpoint) const;
+  [[nodiscard]] std::string text(const std::optional<Eigen::Vector4d>& setpoint) const;
+};
+
+/// `vehicle_axes:` as the options table reads and prints it: [forward, left, up] as body axes
+/// ("+z", "-y", ...), see parse_vehicle_axes().
+struct VehicleAxesField {
+  void read(const YAML::Node& node, SO3& R_body_vehicle) const;
+  /// The nearest body axis of each vehicle axis (exact for what read() gives).
+  [[nodiscard]] std::string text(const SO3& R_body_vehicle) const;
+};
 
 struct ControllerStageOptions {
   /// World set point [x_m, y_m, z_m, yaw_rad]; none (`setpoint: hold`, the default): hover at
@@ -45,14 +61,27 @@ struct ControllerStageOptions {
   control::CommandLimits limits;      ///< header defaults (no YAML of its own)
   std::filesystem::path output = "controller.csv";  ///< per-output CSV, under --out
 
-  /// The `controller:` block of `config`: keys setpoint (hold | [x, y, z, yaw_deg]),
-  /// allow_unfused, vehicle_axes ([+z, -y, +x] style), silence_check_s, controller_options
-  /// (a file, relative to the config's folder), output. Errors are InputErrors naming the
-  /// config file and the field (`run.yaml: field 'controller.setpoint': ...`).
-  static ControllerStageOptions from_yaml(const YAML::Node& node,
-                                          const std::filesystem::path& config);
+  /// The keys of the `controller:` block (io/option_fields.hpp; PipelineOptions reads the
+  /// block). The control options come from the controller_options file, not inline.
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("setpoint", setpoint, SetpointField{});
+    v("allow_unfused", allow_unfused);
+    v("vehicle_axes", R_body_vehicle, VehicleAxesField{});
+    v("silence_check_s", silence_check_s);
+    v("controller_options", controller_options_file);
+    v("output", output);
+  }
+
+  /// Once the block's fields are read: takes controller_options_file from the folder of
+  /// `config` and loads its `controller:`, `pwm:` and `safety:` sections. Errors are
+  /// InputErrors naming the config file and the field, the options file's own error inside
+  /// (`run.yaml: field 'controller.controller_options': ctl.yaml: ...`).
+  void load_files(const std::filesystem::path& config);
+  /// Throws InputError "field 'controller.<name>': ..." (and the control options' own).
   void validate() const;
   [[nodiscard]] std::string describe() const;
+  [[nodiscard]] std::string to_yaml() const;
 };
 
 /// "[+z, -y, +x]" style axes -> R_body_vehicle (columns: the vehicle's forward, left, up in

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
@@ -26,6 +27,14 @@ enum class Source {
   kFolder,  ///< a recorded EuRoC folder: stereo pairs and the IMU (`input`)
   kCamera,  ///< the live V4L2 stereo camera (`camera`); no IMU: the fusion passes through
 };
+
+/// "fast" / "recorded", "folder" / "camera": the names in a config.
+std::string_view to_string(Pace pace);
+std::string_view to_string(Source source);
+/// The options-table hooks (io/option_fields.hpp); throw std::invalid_argument listing the
+/// names.
+void parse_option(std::string_view name, Pace& pace);
+void parse_option(std::string_view name, Source& source);
 
 struct PipelineOptions {
   Source source = Source::kFolder;
@@ -47,28 +56,54 @@ struct PipelineOptions {
   /// fusion/odometry_measurement.hpp, as `kestrel fly --vo-reference`).
   fusion::OdometryReference vo_reference = fusion::OdometryReference::kKeyframe;
   std::filesystem::path output = "trajectory.txt";  ///< fused trajectory (TUM), under --out
+  /// Option files (`matcher_options`, `tracker_options`, `fusion_options`); empty: none.
+  std::filesystem::path matcher_options_file;
+  std::filesystem::path tracker_options_file;
+  std::filesystem::path fusion_options_file;
 
   sensor::BlockMatcherOptions matcher;
-  odometry::DirectTrackerOptions tracker;
+  odometry::DirectTrackerOptions tracker;  ///< tracker_options, or the inline `tracker:` map
   fusion::FusionOptions fusion;  ///< IMU noise and T_body_cam are taken from the folder
   ControllerStageOptions controller;  ///< the controller stage (`controller:` block)
   /// The file load_yaml() read (empty when built in code): run-time errors of the camera name
   /// it with their field.
   std::filesystem::path config_file;
 
+  /// The config's keys (io/option_fields.hpp). Paths are as written; load_yaml() takes them
+  /// from the config's folder and loads the files they name.
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("source", source);
+    v("input", input);
+    v("camera", camera);
+    v("pace", pace);
+    v("drop_stale", drop_stale);
+    v("frame_queue_capacity", frame_queue_capacity);
+    v("fusion_queue_capacity", fusion_queue_capacity);
+    v("state_queue_capacity", state_queue_capacity);
+    v("max_frames", max_frames);
+    v("vo_covariance_scale", vo_covariance_scale);
+    v("vo_reference", vo_reference);
+    v("output", output);
+    v("matcher_options", matcher_options_file);
+    v("tracker_options", tracker_options_file);
+    v("fusion_options", fusion_options_file);
+    v("tracker", tracker);
+    v("controller", controller);
+  }
+
   [[nodiscard]] bool drops() const {
     return drop_stale.value_or(source == Source::kCamera || pace == Pace::kRecorded);
   }
   /// Loads a config file; unknown keys and bad values are InputErrors naming the file and
-  /// field. Keys: source (folder|camera), input (folder), camera (a map, see
-  /// CameraSourceOptions::from_yaml), pace (fast|recorded), drop_stale, frame_queue_capacity,
-  /// fusion_queue_capacity, state_queue_capacity, max_frames, vo_covariance_scale, output,
-  /// matcher_options / tracker_options / fusion_options (files), tracker (inline map),
-  /// controller (a map, see ControllerStageOptions::from_yaml).
+  /// field. Keys: those of visit_fields(); `input` and `pace` are for the folder source,
+  /// `camera` for the camera source; `tracker` and `tracker_options` exclude each other.
   static PipelineOptions load_yaml(const std::filesystem::path& path);
-  /// Throws InputError for impossible values (zero capacities, non-positive scale).
+  /// Throws InputError "field '<name>': ..." for impossible values (zero capacities,
+  /// non-positive scale).
   void validate() const;
   [[nodiscard]] std::string describe() const;
+  [[nodiscard]] std::string to_yaml() const;
 };
 
 }  // namespace kestrel::pipeline

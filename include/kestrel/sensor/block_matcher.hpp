@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "kestrel/geometry/pinhole_camera.hpp"
@@ -31,6 +32,14 @@ enum class Prefilter {
   kNone,    ///< raw grey levels (SAD on intensities)
   kXSobel,  ///< horizontal Sobel response clamped to +-prefilter_cap (OpenCV StereoBM's)
 };
+
+/// "sad" / "census", "none" / "xsobel": the names in option files.
+[[nodiscard]] std::string_view to_string(MatchingCost cost);
+[[nodiscard]] std::string_view to_string(Prefilter prefilter);
+/// The options-table hooks (io/option_fields.hpp); throw std::invalid_argument listing the
+/// names.
+void parse_option(std::string_view name, MatchingCost& cost);
+void parse_option(std::string_view name, Prefilter& prefilter);
 
 struct BlockMatcherOptions {
   /// Disparities searched: min_disparity <= d < max_disparity (OpenCV's numDisparities is
@@ -63,9 +72,28 @@ struct BlockMatcherOptions {
   double min_depth_m = 0.0;
   double max_depth_m = std::numeric_limits<double>::infinity();
 
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("min_disparity", min_disparity);
+    v("max_disparity", max_disparity);
+    v("block_size", block_size);
+    v("cost", cost);
+    v("prefilter", prefilter);
+    v("prefilter_cap", prefilter_cap);
+    v("census_window", census_window);
+    v("subpixel", subpixel);
+    v("lr_max_diff", lr_max_diff);
+    v("uniqueness_ratio", uniqueness_ratio);
+    v("texture_threshold", texture_threshold);
+    v("min_depth_m", min_depth_m);
+    v("max_depth_m", max_depth_m);
+  }
+
   /// Throws std::invalid_argument naming the bad field and its valid range.
   void validate() const;
   [[nodiscard]] std::string describe() const;
+  /// The YAML fields, as load_yaml() reads them (max_depth_m may be .inf).
+  [[nodiscard]] std::string to_yaml() const;
   /// YAML map with any of the field names (cost: sad|census, prefilter: none|xsobel);
   /// unknown keys are errors. Errors name the file and field.
   static BlockMatcherOptions load_yaml(const std::filesystem::path& path);

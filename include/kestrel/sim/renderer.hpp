@@ -35,9 +35,20 @@ struct RenderOptions {
   /// Sensor noise applied to every rendered frame (off by default).
   SensorNoiseOptions noise;
 
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("near_m", near_m);
+    v("far_m", far_m);
+    v("edge_supersampling", edge_supersampling);
+    v("mipmapping", mipmapping);
+    v("noise", noise);
+  }
+
   /// Throws std::invalid_argument for inconsistent values.
   void validate() const;
   [[nodiscard]] std::string describe() const;
+  /// The YAML fields, as load_yaml() reads them (the noise as a nested map).
+  [[nodiscard]] std::string to_yaml() const;
   /// YAML map with any of near_m, far_m, edge_supersampling, mipmapping and a `noise` map
   /// (SensorNoiseOptions fields). Errors name the file and field.
   static RenderOptions load_yaml(const std::filesystem::path& path);

@@ -39,6 +39,19 @@ struct SensorNoiseOptions {
   /// Gaussian noise added to each colour channel, in 8-bit grey levels (sigma).
   double intensity_sigma = 0.0;
 
+  template <typename V>
+  void visit_fields(V&& v) {
+    v("depth_sigma_a_m", depth_sigma_a_m);
+    v("depth_sigma_b_per_m", depth_sigma_b_per_m);
+    v("depth_sigma_z0_m", depth_sigma_z0_m);
+    v("inverse_depth_step_per_m", inverse_depth_step_per_m);
+    v("missing_probability", missing_probability);
+    v("max_incidence_deg", max_incidence_deg);
+    v("min_range_m", min_range_m);
+    v("max_range_m", max_range_m);
+    v("intensity_sigma", intensity_sigma);
+  }
+
   /// No noise at all (the default).
   static SensorNoiseOptions none() { return {}; }
   /// A Kinect v1 (the TUM RGB-D benchmark's sensor): Nguyen's axial noise, 1/8 px disparity
@@ -54,6 +67,8 @@ struct SensorNoiseOptions {
   /// `field_prefix` + key (e.g. "noise.intensity_sigma").
   static SensorNoiseOptions from_yaml(const YAML::Node& node, const std::filesystem::path& file,
                                       const std::string& field_prefix = {});
+  /// The YAML fields, as load_yaml() reads them (max_range_m may be .inf).
+  [[nodiscard]] std::string to_yaml() const;
   /// Writes the options as YAML (provenance line of `command` first).
   void save_yaml(const std::filesystem::path& path, std::string_view command,
                  bool force = false) const;
