@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 3's peer comparison: kestrel odometry vs OpenCV contrib RgbdOdometry and RgbdICPOdometry
+# The odometry peer comparison: kestrel odometry vs OpenCV contrib RgbdOdometry and RgbdICPOdometry
 # on one TUM RGB-D sequence, each pinned to one core (taskset) and single-threaded, every
 # trajectory evaluated by `kestrel evaluate`. Prints one table.
 #
