@@ -1,6 +1,6 @@
-// The closed loop's per-frame and per-step costs (issue 6): one camera frame of the on-board
-// vision (render the active-stereo pair and the tracking view, match, track) split by stage,
-// and the IMU output predictor over a 50 ms filter lag at 1 kHz.
+// The closed loop's per-frame and per-step costs: one camera frame of the on-board vision
+// (render the active-stereo pair and the tracking view, match, track) split by stage, and the
+// IMU output predictor over a 50 ms filter lag at 1 kHz.
 #include <benchmark/benchmark.h>
 
 #include "kestrel/flight/imu_forward_predictor.hpp"

@@ -363,11 +363,11 @@ void BM_TrackAgainstKeyframeWithDepthResidual(benchmark::State& s) {
 }
 BENCHMARK(BM_TrackAgainstKeyframeWithDepthResidual)->Arg(6000)->Unit(benchmark::kMillisecond);
 
-// The real sequence of issue 3 (fr1/rpy part 1, 250 frames, fast rotation, motion blur), decoded
-// once into memory: one iteration tracks all of it with a fresh tracker, so the CPU time per
-// frame includes undistortion, keyframe switches, failures and fallbacks in their real
-// proportions. Arg 0: the default options (bicubic sampling on the finest level); 1: without the
-// geometric fallback; 2: bilinear sampling on every level (bicubic_finest_level: false).
+// The real sequence of docs/odometry.md's targets (fr1/rpy part 1, 250 frames, fast rotation,
+// motion blur), decoded once into memory: one iteration tracks all of it with a fresh tracker, so
+// the CPU time per frame includes undistortion, keyframe switches, failures and fallbacks in their
+// real proportions. Arg 0: the default options (bicubic sampling on the finest level); 1: without
+// the geometric fallback; 2: bilinear sampling on every level (bicubic_finest_level: false).
 struct RealSequence {
   std::vector<odometry::RgbdFrame> frames;
   std::string error;

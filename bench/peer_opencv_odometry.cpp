@@ -1,6 +1,7 @@
-// Peer runner for issue 3's comparison: OpenCV contrib's RgbdOdometry (dense photometric) and
-// RgbdICPOdometry (projective point-to-plane ICP) frame to frame on a TUM RGB-D folder, single
-// threaded, writing a TUM trajectory (first frame at the identity) and the per-frame time.
+// Peer runner for the comparison in docs/odometry.md ("Peers"): OpenCV contrib's RgbdOdometry
+// (dense photometric) and RgbdICPOdometry (projective point-to-plane ICP) frame to frame on a TUM
+// RGB-D folder, single threaded, writing a TUM trajectory (first frame at the identity) and the
+// per-frame time.
 //
 //   peer_opencv_odometry rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]
 //

@@ -1,4 +1,4 @@
-// `kestrel fly`: the closed-loop flight of the whole pipeline in simulation (issue 6).
+// `kestrel fly`: the closed-loop flight of the whole pipeline in simulation.
 #include <iomanip>
 #include <iostream>
 #include <memory>

@@ -178,7 +178,7 @@ void add_stereo_experiment_command(CLI::App& lab) {
   cmd->add_option("--noise", o.intensity_sigma, "camera intensity noise sigma [grey levels]")
       ->capture_default_str();
   cmd->add_flag("--force", args->force, "write into a folder not claimed by this command");
-  // The stereo odometry experiment (issue 4): defaults in stereo_odometry_experiment.hpp.
+  // The stereo odometry experiment: defaults in stereo_odometry_experiment.hpp.
   auto& q = args->odo;
   cmd->add_flag("--odometry", args->odometry,
                 "stereo odometry instead: the corridor sequence rendered passive and active, "

@@ -98,7 +98,7 @@ Scenario make_scenario(std::string_view name, const SE3& T_world_start) {
   const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
   const Eigen::Vector3d y = Eigen::Vector3d::UnitY();
   const double yaw = control::yaw_of(T_world_start.so3());
-  constexpr double kCruise = 0.5;  // m/s (issue 6: the square at 0.5 m/s)
+  constexpr double kCruise = 0.5;  // m/s, every scenario's (docs/flight.md, "Scenarios")
   constexpr double kAccel = 0.5;   // m/s^2: reaches cruise in 1 s
   constexpr double kHold = 3.0;    // s at the start before the first leg
   if (name == "hover") {

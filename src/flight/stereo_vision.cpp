@@ -30,10 +30,9 @@ sensor::StereoFrontEndOptions front_end_options(const StereoVisionOptions& o) {
 
 sim::ProjectorOptions rig_projector_options() {
   sim::ProjectorOptions p;
-  // Shadow rays test every face of the scene; from 8 cm beside the camera the projector's
-  // shadows are thin slivers. Measured (hover, office / corridor, 376x240, 5 s): render
-  // 58.8 -> 43.5 ms and 82.2 -> 45.7 ms per frame without them, depth fill unchanged
-  // (92.1 % / 75.3 %).
+  // Shadow rays cost more than they add: each tests every face of the scene, and from 8 cm
+  // beside the camera the projector's shadows are thin slivers, so the depth fill is the same
+  // without them (docs/flight.md, "The sensor head", has the timings).
   p.shadows = false;
   return p;
 }

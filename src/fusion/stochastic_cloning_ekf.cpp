@@ -86,8 +86,8 @@ NominalState StochasticCloningEkf::propagate_nominal(const NominalState& x,
   // series of constant acceleration (eq. 4.6 is the first-order part of it). The reading is
   // the mean of two samples, so its specific force is rotated to the world by the step's
   // MIDPOINT attitude R exp(w dt / 2), not the start's: rotating by R alone errs by
-  // (w dt / 2) x a, a systematic 0.025 m/s^2 at 1 rad/s and 200 Hz (measured on the ideal IMU
-  // of a simulated flight: 14.0 mm over 2 s with R, 0.05 mm with the midpoint).
+  // (w dt / 2) x a, a systematic 0.025 m/s^2 at 1 rad/s and 200 Hz, which dominates the dead
+  // reckoning of an ideal IMU (docs/fusion.md, "Over 20 noise draws", has both errors).
   NominalState r = x;
   const Vector3d w = m.gyro_rad_s - x.gyro_bias_rad_s;
   const Vector3d a = m.accel_m_s2 - x.accel_bias_m_s2;

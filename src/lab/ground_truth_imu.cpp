@@ -90,10 +90,9 @@ Vector3d GroundTruthSpline::body_rate(TimeNs t) const {
   double s = 0.0;
   const std::size_t i = interval(t, s);
   // On an inner sample the rate jumps; the mean of the two sides makes the trapezoidal
-  // integration of IMU samples (the filter's) cancel the jump to first order. Measured with
-  // fuse-eval's 1 s window check on V1_02's synthetic IMU: gyro error 0.0015 -> 0.0003 rad/s
-  // rms (the YAML's white noise alone: 0.0003); dead reckoning on a sampled flight over 2 s
-  // 4.5 -> 0.2 mm.
+  // integration of IMU samples (the filter's) cancel the jump to first order. Without it the
+  // synthetic gyro errs well beyond its white noise, about as much as the real one (docs/fusion.md,
+  // "The control experiment").
   if (t == t_[i] && i > 0) return 0.5 * (w_[i - 1] + w_[i]);
   return w_[i];
 }

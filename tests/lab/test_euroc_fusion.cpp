@@ -1,5 +1,5 @@
-// The fusion on the real EuRoC V1_02 IMU with relative poses from the ground truth (issue 5
-// targets; the figures are in docs/fusion.md). Skips where the shared data is absent.
+// The fusion on the real EuRoC V1_02 IMU with relative poses from the ground truth (the
+// targets and figures are in docs/fusion.md). Skips where the shared data is absent.
 #include <gtest/gtest.h>
 
 #include "kestrel/io/camera_io.hpp"

@@ -25,7 +25,7 @@ TEST(StereoExperiment, ActiveFillsFarMoreThanPassive) {
   EXPECT_LT(r.active.bad_rate(), 0.05) << r.active.score.describe();
 }
 
-// Issue 4's fig. 2.7 target at the experiment's full size and defaults (640x480, block 9, 200
+// The fig. 2.7 target at the experiment's full size and defaults (640x480, block 9, 200
 // lines across the image, dark room): active fill >= 95 % with <= 2 % of the filled pixels off by
 // more than 1 px, passive far below. Measured: 97.9 % / 0.57 %, passive 22.9 %.
 TEST(StereoExperiment, Fig27TargetAtFullSize) {

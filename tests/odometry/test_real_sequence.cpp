@@ -1,4 +1,4 @@
-// Issue 3's accuracy targets on real data: fr1/rpy part 1 (250 frames, fast rotation) with the
+// The odometry's accuracy targets on real data: fr1/rpy part 1 (250 frames, fast rotation) with the
 // default options, RPE <= 0.035 m/s and <= 1.9 deg/s. Needs the shared data; takes ~1 minute in an
 // optimised build, so unoptimised and sanitizer builds skip it unless KESTREL_LONG_TESTS=1.
 #include <gtest/gtest.h>
@@ -48,7 +48,7 @@ TEST(RealSequence, Freiburg1RpyPart1AccuracyRegression) {
   std::cout << "fr1/rpy part1: RPE " << e.rpe.trans_rmse_m_s() << " m/s, " << e.rpe.rot_rmse_deg_s()
             << " deg/s, ATE " << e.ate.stats_m.rmse << " m, failures " << failures
             << ", geometric fallbacks " << fallbacks << "\n";
-  // Issue targets: RPE <= 0.035 m/s and <= 1.9 deg/s. Measured 2026-12-03: 0.0266 m/s,
+  // Targets: RPE <= 0.035 m/s and <= 1.9 deg/s. Measured: 0.0266 m/s,
   // 1.766 deg/s, ATE 0.0291 m, 0 failures, 50 geometric fallbacks (2.063 deg/s before the
   // fallback's rotation from the previous frame; 3.14 deg/s and 18 failures before the fallback).
   EXPECT_LE(e.rpe.trans_rmse_m_s(), 0.035);

@@ -1,6 +1,6 @@
-// What `kestrel fly` leaves behind: the log (issue 6's columns, at the control rate), a detail
-// log, the figures (top view; errors, altitude and odometry status over time) and the summary
-// line.
+// What `kestrel fly` leaves behind: the log (at the control rate; docs/flight.md lists its
+// columns), a detail log, the figures (top view; errors, altitude and odometry status over time)
+// and the summary line.
 #pragma once
 
 #include <filesystem>

@@ -1,4 +1,4 @@
-// The whole closed loop of issue 6, every component the real one: the vehicle (rigid-body
+// The whole closed loop in simulation, every component the real one: the vehicle (rigid-body
 // dynamics under a Naza-like attitude flight controller) is seen by the rig's active-stereo
 // cameras (rendered from the true pose), whose disparity and depth feed the direct odometry;
 // the odometry's relative motions and the IMU feed the error-state EKF; the EKF's state,
@@ -33,8 +33,8 @@ struct FlightOptions {
   double camera_rate_hz = 30.0;
   /// Exposure to measurement in the filter: USB transfer, matching and tracking on board.
   double vision_latency_s = 0.040;
-  /// Odometry switched off over [vo_off_at_s, vo_off_at_s + vo_off_for_s) (issue 6's outage
-  /// test); a negative time: never.
+  /// Odometry switched off over [vo_off_at_s, vo_off_at_s + vo_off_for_s) (the outage test of
+  /// docs/flight.md); a negative time: never.
   double vo_off_at_s = -1.0;
   double vo_off_for_s = 0.0;
   std::uint64_t seed = 1;  ///< IMU noise and biases, camera noise, pattern, scene textures
@@ -90,8 +90,8 @@ struct FlightResult {
   double duration_s = 0.0;
   bool crashed = false;
   std::string final_mode;
-  /// RMS of |p_true - p_ref| over the samples at t >= settle_s (the issue's tracking figure;
-  /// while the supervisor holds or lands, its reference counts).
+  /// RMS of |p_true - p_ref| over the samples at t >= settle_s (the tracking figure of
+  /// docs/flight.md; while the supervisor holds or lands, its reference counts).
   [[nodiscard]] double rms_tracking_m() const;
   /// RMS of |p_est - p_true| over the same samples.
   [[nodiscard]] double rms_estimate_m() const;

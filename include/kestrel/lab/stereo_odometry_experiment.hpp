@@ -1,6 +1,6 @@
-// Passive vs active stereo odometry on a rendered low-texture corridor (issue 4): the same
-// trajectory rendered passive (the scene's lights) and active (the projector's pattern), each
-// block-matched and tracked in disparity space, and scored against the rendered ground truth.
+// Passive vs active stereo odometry on a rendered low-texture corridor: the same trajectory
+// rendered passive (the scene's lights) and active (the projector's pattern), each block-matched
+// and tracked in disparity space, and scored against the rendered ground truth.
 // `kestrel lab stereo-experiment --odometry` runs it; docs/stereo.md has the figures.
 #pragma once
 

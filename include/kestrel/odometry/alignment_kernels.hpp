@@ -133,7 +133,7 @@ namespace detail {
 
 // Row A of the normal equations: sum w J_A J_b for b = A..C-1 and sum w J_A r, each in one AVX
 // accumulator (C - A + 1 <= 9 of them: they stay in registers, unlike the 44 lane arrays of all
-// rows at once, which spilled: 63.1 -> 10.1 us per 6000 points, bench BM_NormalEquations).
+// rows at once, which spill to memory; docs/odometry.md, "Speed").
 template <int A, int C>
 void accumulate_row(const float* const* J, int n, const float* w, const float* r, double* row) {
   constexpr int kTerms = C - A + 1;
@@ -188,8 +188,8 @@ void accumulate_normal_equations(const float* const* J, int count, const float* 
 #if defined(__AVX2__) && defined(__FMA__)
   detail::accumulate_rows<C>(J, n, w, r, H, g, std::make_integer_sequence<int, C>{});
 #else
-  // All terms at once in lane arrays the compiler vectorises (row by row measured 2x slower
-  // when left to the auto-vectoriser).
+  // All terms at once in lane arrays the compiler vectorises: without the AVX2 intrinsics,
+  // row by row is the slower of the two (docs/odometry.md, "Speed").
   constexpr int kH = C * (C + 1) / 2;
   alignas(32) float acc[kH + C][kLanes] = {};
   for (int i = 0; i < n; i += kLanes) {

@@ -59,7 +59,7 @@ struct DirectTrackerOptions {
   /// Unsynchronised RGB-D (Kinect v1: depth and colour up to ~15 ms apart): move the depth
   /// maps to the colour image's time with the constant-velocity motion, so that the 3D points
   /// and the geometric residual describe the scene as the image saw it.
-  /// Off by default: on fr1/rpy it made the rotation worse (docs/odometry.md).
+  /// Off by default: on fr1/rpy it made the rotation worse (docs/odometry.md, "Figures").
   bool compensate_depth_time_offset = false;
 
   // --- rolling shutter (Ringaby & Forssen, IJCV 2012; Kerl et al., ICCV 2015) ---
@@ -81,17 +81,16 @@ struct DirectTrackerOptions {
   /// Sample the current image bicubically (Catmull-Rom) on the finest level, bilinearly on the
   /// others. Bilinear sampling's derivative jumps at integer pixel positions, where a still or
   /// hovering camera's points land, and the level there ends at the kink short of the noise
-  /// floor; the C1 bicubic cost has none: the still-camera target (< 0.1 mm on every frame) is
-  /// met with it and missed without it (0.113 mm). On by default since 2026-12-02: +0.4 ms per
-  /// fr1 frame; fr1/rpy 2.063 deg/s against 2.044 bilinear, inside the run-to-run spread. The
-  /// rolling-shutter rectifier resamples with the matching kernel (image::Interpolation)
-  /// (docs/odometry.md, "Still camera").
+  /// floor; the C1 bicubic cost has none: only with it does a still camera stay within 0.1 mm
+  /// on every frame. On by default: it costs little per frame and leaves the rotation error on
+  /// fast motion within the run-to-run spread. The rolling-shutter rectifier resamples with the
+  /// matching kernel (image::Interpolation) (docs/odometry.md, "Still camera" and "bicubic
+  /// sampling on the finest level").
   bool bicubic_finest_level = true;
   /// The same on the coarser levels (their cost has the same kink). Off by default: on fr1/rpy
-  /// part 1 the 4-start mean goes 2.078 -> 2.006 deg/s (0.0275 -> 0.0282 m/s, +0.5 ms per frame),
-  /// but bicubic on only some coarse levels spreads it over 2.07-2.19 (no trend), and the
-  /// disparity-space (stereo) runs get worse (rendered corridor, forward, active-depth ATE
-  /// 0.028 -> 0.182 m) (docs/odometry.md, "Default since 2026-12-02").
+  /// it lowers the rotation error a little and raises the translation error, bicubic on only
+  /// some of the coarse levels moves the rotation error with no trend, and the disparity-space
+  /// (stereo) runs get much worse (docs/odometry.md, "Bicubic on the coarser levels too").
   bool bicubic_coarse_levels = false;
 
   // --- motion prior and keyframes (thesis 5.2 future work) ---
@@ -124,13 +123,14 @@ struct DirectTrackerOptions {
   /// the reference (its own gradients, points and normals, as OpenCV's RgbdICPOdometry takes the
   /// current frame's) with the same joint residual and checks. That rotation replaces the
   /// keyframe alignment's; the translation, which drifts less against the keyframe, is kept, and
-  /// so is the keyframe. On by default since 2026-12-03: fr1/rpy part 1 2.063 -> 1.766 deg/s
-  /// (4 starts 2.078 -> 1.782), BM_TrackRealSequence 5.31 -> 6.32 ms per frame (docs/odometry.md,
-  /// "The fallback's rotation from the previous frame").
+  /// so is the keyframe. On by default: on fast, blurred rotations it removes much of the
+  /// rotation error, for some more time per frame (docs/odometry.md, "The fallback's rotation
+  /// from the previous frame").
   bool fallback_rotation_from_previous_frame = true;
   /// ... iterated from this pyramid level down to finest_level (it starts from the keyframe
-  /// fallback's estimate): 2 measured as accurate as all 5 levels on fr1/rpy (4-start 1.781
-  /// against 1.776 deg/s) for ~1 ms less per frame; 1 lost 0.1 deg/s.
+  /// fallback's estimate): from 2 it is as accurate as from the coarsest level, for less time
+  /// per frame; from 1 it loses accuracy (docs/odometry.md, "The fallback's rotation from the
+  /// previous frame").
   int fallback_rotation_coarsest_level = 2;
   /// A level's estimate farther than this from the coarser level's (in pixels of the coarser
   /// level: rotation f*|w| plus translation f*|t|/median depth) triggers the fallback.

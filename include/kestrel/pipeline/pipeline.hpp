@@ -1,5 +1,5 @@
-// The real-time pipeline (issue 7): the thesis' components as stages on their own threads,
-// joined by bounded queues that drop stale frames rather than fall behind:
+// The real-time pipeline: the thesis' components as stages on their own threads, joined by
+// bounded queues that drop stale frames rather than fall behind:
 //
 //   source (EuRoC folder: decode pairs, stream IMU; or the V4L2 stereo camera: pairs only)
 //     -> depth (rectify + block match)

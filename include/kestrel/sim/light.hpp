@@ -1,8 +1,8 @@
 // Light sources of the renderer. Shading is Lambertian and view-independent, so that rendered
 // frames obey brightness constancy: radiance = albedo * texture * (ambient + sum of lights).
 // A light only answers "how much light reaches this surface point", which is also the hook for
-// a projector (a pinhole light casting a pattern image, later issue): it gets the point, its
-// normal and the scene (for shadow rays) and returns a colour.
+// a projector (a pinhole light casting a pattern image, sim/projector_light.hpp): it gets the
+// point, its normal and the scene (for shadow rays) and returns a colour.
 #pragma once
 
 #include <Eigen/Core>
