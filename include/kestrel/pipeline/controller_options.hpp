@@ -48,8 +48,8 @@ struct ControllerStageOptions {
   SO3 R_body_vehicle;
   /// No state for this long (wall clock): the stage asks the watchdog what to output
   /// (its failsafe once the last command is older than its timeout). Twice a 20 Hz camera's
-  /// period: at 0.05 s, one period, V1_01 at the recorded pace logged 7 spurious `none` rows
-  /// among 16 states. Well inside the watchdog's 0.25 s timeout either way.
+  /// period, so that a state arriving a little late is not taken for silence (docs/pipeline.md,
+  /// "Controller stage"); well inside the watchdog's 0.25 s timeout.
   double silence_check_s = 0.1;
   /// The file of control options (`controller:`, `pwm:`, `safety:` sections, as
   /// config/controller_default.yaml); empty: the header defaults.
