@@ -8,6 +8,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
@@ -126,179 +127,255 @@ EurocExperimentResult::ImuConsistency imu_consistency(const std::vector<io::ImuS
   return c;
 }
 
-}  // namespace
+// The state run_euroc_experiment's steps pass on: the IMU and ground truth the run uses (the
+// real ones, or the synthetic IMU's), the filter's options, the odometry's frames and noise,
+// and the filter's start.
+struct EurocRun {
+  EurocRun(const std::vector<io::ImuSample>& imu, const std::vector<GroundTruthSample>& gt,
+           fusion::FusionOptions fusion_options, const EurocExperimentOptions& options)
+      : real_imu(imu), real_gt(gt), fusion(std::move(fusion_options)), opt(options) {}
 
-EurocExperimentResult run_euroc_experiment(const std::string& name,
-                                           const std::vector<io::ImuSample>& real_imu,
-                                           const std::vector<GroundTruthSample>& real_gt,
-                                           fusion::FusionOptions fusion,
-                                           const EurocExperimentOptions& opt) {
-  if (real_imu.size() < 2 || real_gt.size() < 3) {
-    throw InputError(name + ": not enough IMU or ground truth");
+  [[nodiscard]] const std::vector<io::ImuSample>& imu() const {
+    return opt.synthetic_imu ? synthetic_imu : real_imu;
   }
-  // The control experiment swaps in an IMU synthesised from the ground truth, with its own
-  // random stream (the odometry's noise below is drawn from `seed` as with the real IMU).
-  std::vector<io::ImuSample> synthetic;
+  [[nodiscard]] const std::vector<GroundTruthSample>& gt() const {
+    return opt.synthetic_imu ? synthetic_gt : real_gt;
+  }
+  [[nodiscard]] const GroundTruthSample& first_frame() const { return gt()[frames[0]]; }
+
+  const std::vector<io::ImuSample>& real_imu;
+  const std::vector<GroundTruthSample>& real_gt;
+  fusion::FusionOptions fusion;
+  const EurocExperimentOptions& opt;
+  std::vector<io::ImuSample> synthetic_imu;
   std::vector<GroundTruthSample> synthetic_gt;
+  fusion::ImuNoiseDensities yaml_noise;  // the filter's, before the options' scales
+  std::map<TimeNs, std::size_t> index;   // ground truth by time stamp
+  std::vector<std::size_t> frames;       // the odometry's frames (ground-truth samples)
+  std::vector<Vector6d> noise;           // the odometry's noise per frame
+  Matrix6d cov;                          // and its covariance
+  fusion::NominalState x0;
+  TimeNs gap_lo = 0, gap_hi = 0;
+};
+
+// The IMU and ground truth the run uses, the filter's noise as the options scale it, and the
+// ground truth's index.
+void load_inputs(EurocRun& run) {
+  const EurocExperimentOptions& opt = run.opt;
+  fusion::FusionOptions& fusion = run.fusion;
+  // The control experiment swaps in an IMU synthesised from the ground truth, with its own
+  // random stream (the odometry's noise is drawn from `seed` as with the real IMU).
   if (opt.synthetic_imu) {
     std::vector<TimeNs> stamps;
-    stamps.reserve(real_imu.size());
-    for (const auto& s : real_imu) stamps.push_back(s.t_ns);
-    synthetic_gt = real_gt;
+    stamps.reserve(run.real_imu.size());
+    for (const auto& s : run.real_imu) stamps.push_back(s.t_ns);
+    run.synthetic_gt = run.real_gt;
     GroundTruthImuOptions gio;
     gio.noise = fusion.noise;
     gio.gravity_m_s2 = fusion.gravity_m_s2;
     std::seed_seq seq{opt.seed, std::uint64_t{0x1A2B3C4D}};
     std::mt19937_64 imu_rng(seq);
-    synthetic = imu_from_ground_truth(synthetic_gt, stamps, gio, imu_rng);
+    run.synthetic_imu = imu_from_ground_truth(run.synthetic_gt, stamps, gio, imu_rng);
   }
-  const std::vector<io::ImuSample>& imu = opt.synthetic_imu ? synthetic : real_imu;
-  const std::vector<GroundTruthSample>& gt = opt.synthetic_imu ? synthetic_gt : real_gt;
-  const fusion::ImuNoiseDensities yaml_noise = fusion.noise;  // before the scales below
+  run.yaml_noise = fusion.noise;  // before the scales below
   fusion.reorder_window_s = 0.0;
   fusion.noise.gyro_noise *= opt.imu_noise_scale;
   fusion.noise.accel_noise *= opt.imu_noise_scale;
   fusion.noise.gyro_walk *= opt.imu_walk_scale;
   fusion.noise.accel_walk *= opt.imu_walk_scale;
-  std::map<TimeNs, std::size_t> index;
-  for (std::size_t i = 0; i < gt.size(); ++i) index.emplace(gt[i].t_ns, i);
+  const std::vector<GroundTruthSample>& gt = run.gt();
+  for (std::size_t i = 0; i < gt.size(); ++i) run.index.emplace(gt[i].t_ns, i);
+}
 
-  // Measurement frames: ground-truth samples at vo_rate_hz inside the IMU's span.
+// Measurement frames: ground-truth samples at vo_rate_hz inside the IMU's span.
+void select_frames(EurocRun& run, const std::string& name) {
+  const std::vector<io::ImuSample>& imu = run.imu();
+  const std::vector<GroundTruthSample>& gt = run.gt();
   const double gt_dt =
       ns_to_s(gt[gt.size() - 1].t_ns - gt[0].t_ns) / static_cast<double>(gt.size() - 1);
   const auto step = std::max<std::size_t>(
-      1, static_cast<std::size_t>(std::llround(1.0 / (gt_dt * opt.vo_rate_hz))));
-  std::vector<std::size_t> frames;
+      1, static_cast<std::size_t>(std::llround(1.0 / (gt_dt * run.opt.vo_rate_hz))));
   for (std::size_t i = 0; i < gt.size(); i += step) {
-    if (gt[i].t_ns > imu.front().t_ns && gt[i].t_ns <= imu.back().t_ns) frames.push_back(i);
+    if (gt[i].t_ns > imu.front().t_ns && gt[i].t_ns <= imu.back().t_ns) run.frames.push_back(i);
   }
-  if (frames.size() < 3) throw InputError(name + ": ground truth and IMU hardly overlap");
+  if (run.frames.size() < 3) throw InputError(name + ": ground truth and IMU hardly overlap");
+}
 
-  // Noisy camera relative poses, T_meas = exp(-xi) T_true, xi ~ N(0, Sigma), one draw per
-  // frame (the same draws with and without the gap).
-  std::mt19937_64 rng(opt.seed);
+// Noisy camera relative poses, T_meas = exp(-xi) T_true, xi ~ N(0, Sigma), one draw per
+// frame (the same draws with and without the gap).
+void draw_odometry_noise(EurocRun& run) {
+  std::mt19937_64 rng(run.opt.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
-  const double sr = opt.vo_sigma_rot_deg / kRadToDeg;
+  const double sr = run.opt.vo_sigma_rot_deg / kRadToDeg;
   Vector6d sigma;
-  sigma << Vector3d::Constant(opt.vo_sigma_p_m), Vector3d::Constant(sr);
-  const Matrix6d cov = sigma.array().square().matrix().asDiagonal();
-  std::vector<Vector6d> noise(frames.size());
-  for (auto& xi : noise) {
+  sigma << Vector3d::Constant(run.opt.vo_sigma_p_m), Vector3d::Constant(sr);
+  run.cov = sigma.array().square().matrix().asDiagonal();
+  run.noise.resize(run.frames.size());
+  for (auto& xi : run.noise) {
     for (int j = 0; j < 6; ++j) xi(j) = sigma(j) * normal(rng);
   }
-  const SE3& T_bc = fusion.T_body_cam;
-  const double max_rot_rad = opt.vo_keyframe_max_rot_deg / kRadToDeg;
-  // The odometry's measurements, skipping frames in [gap_lo, gap_hi) when given: after a gap
-  // the odometry restarts, its first frame only becomes the reference (t_ref = t, as the
-  // pipeline reports a first frame).
-  auto make_measurements = [&](TimeNs gap_lo, TimeNs gap_hi) {
-    std::vector<fusion::RelativePoseMeasurement> out;
-    std::size_t ref = 0;
-    int frames_on_ref = 0;
-    bool restart = false;
-    for (std::size_t k = 1; k < frames.size(); ++k) {
-      const TimeNs t = gt[frames[k]].t_ns;
-      if (t > gap_lo && t <= gap_hi) {
-        restart = true;
-        continue;
-      }
-      fusion::RelativePoseMeasurement m;
-      m.t_ns = t;
-      m.covariance = cov;
-      if (restart) {
-        m.t_ref_ns = t;
-        m.T_ref_cur = SE3();
-        out.push_back(m);
-        ref = k;
-        frames_on_ref = 0;
-        restart = false;
-        continue;
-      }
-      const std::size_t r = opt.vo_keyframes ? ref : k - 1;
-      const SE3 T_true =
-          (gt[frames[r]].T_world_body * T_bc).inverse() * (gt[frames[k]].T_world_body * T_bc);
-      m.t_ref_ns = gt[frames[r]].t_ns;
-      m.T_ref_cur = SE3::exp(-noise[k]) * T_true;
-      ++frames_on_ref;
-      m.starts_new_reference = !opt.vo_keyframes || T_true.so3().log().norm() > max_rot_rad ||
-                               T_true.translation().norm() > opt.vo_keyframe_max_trans_m ||
-                               frames_on_ref >= opt.vo_keyframe_max_frames;
-      if (m.starts_new_reference) {
-        ref = k;
-        frames_on_ref = 0;
-      }
-      out.push_back(m);
-    }
-    return out;
-  };
-  const std::vector<fusion::RelativePoseMeasurement> meas = make_measurements(0, 0);
+}
 
-  const GroundTruthSample& g0 = gt[frames[0]];
-  fusion::NominalState x0;
+// The odometry's measurements, skipping frames in [gap_lo, gap_hi) when given: after a gap
+// the odometry restarts, its first frame only becomes the reference (t_ref = t, as the
+// pipeline reports a first frame).
+std::vector<fusion::RelativePoseMeasurement> make_measurements(const EurocRun& run, TimeNs gap_lo,
+                                                               TimeNs gap_hi) {
+  const EurocExperimentOptions& opt = run.opt;
+  const std::vector<GroundTruthSample>& gt = run.gt();
+  const std::vector<std::size_t>& frames = run.frames;
+  const SE3& T_bc = run.fusion.T_body_cam;
+  const double max_rot_rad = opt.vo_keyframe_max_rot_deg / kRadToDeg;
+  std::vector<fusion::RelativePoseMeasurement> out;
+  std::size_t ref = 0;
+  int frames_on_ref = 0;
+  bool restart = false;
+  for (std::size_t k = 1; k < frames.size(); ++k) {
+    const TimeNs t = gt[frames[k]].t_ns;
+    if (t > gap_lo && t <= gap_hi) {
+      restart = true;
+      continue;
+    }
+    fusion::RelativePoseMeasurement m;
+    m.t_ns = t;
+    m.covariance = run.cov;
+    if (restart) {
+      m.t_ref_ns = t;
+      m.T_ref_cur = SE3();
+      out.push_back(m);
+      ref = k;
+      frames_on_ref = 0;
+      restart = false;
+      continue;
+    }
+    const std::size_t r = opt.vo_keyframes ? ref : k - 1;
+    const SE3 T_true =
+        (gt[frames[r]].T_world_body * T_bc).inverse() * (gt[frames[k]].T_world_body * T_bc);
+    m.t_ref_ns = gt[frames[r]].t_ns;
+    m.T_ref_cur = SE3::exp(-run.noise[k]) * T_true;
+    ++frames_on_ref;
+    m.starts_new_reference = !opt.vo_keyframes || T_true.so3().log().norm() > max_rot_rad ||
+                             T_true.translation().norm() > opt.vo_keyframe_max_trans_m ||
+                             frames_on_ref >= opt.vo_keyframe_max_frames;
+    if (m.starts_new_reference) {
+      ref = k;
+      frames_on_ref = 0;
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
+// The filter's start: the first frame's ground-truth pose and velocity, and the gap's span
+// after it.
+void initial_state(EurocRun& run) {
+  const GroundTruthSample& g0 = run.first_frame();
+  fusion::NominalState& x0 = run.x0;
   x0.t_ns = g0.t_ns;
   x0.p_world = g0.T_world_body.translation();
   x0.q_world_body = g0.T_world_body.unit_quaternion();
   x0.v_world = g0.v_world;
-  // Static start (issue 5, "initialisation from a static start"): the gyro bias is the mean
-  // rate over the IMU samples before the first pose, when they pass the still test; the
-  // ground truth is not used for it. Otherwise zero biases with the wide prior of `fusion`.
-  if (opt.static_gyro_bias_init) {
+  // Static start: the gyro bias is the mean rate over the IMU samples before the first pose,
+  // when they pass the still test; the ground truth is not used for it. Otherwise zero biases
+  // with the wide prior of `fusion`.
+  if (run.opt.static_gyro_bias_init) {
     std::vector<io::ImuSample> still;
-    for (const auto& s : imu) {
+    for (const auto& s : run.imu()) {
       if (s.t_ns <= g0.t_ns) still.push_back(s);
     }
-    if (const auto xs = fusion::static_initial_state(still, fusion)) {
+    if (const auto xs = fusion::static_initial_state(still, run.fusion)) {
       x0.gyro_bias_rad_s = xs->gyro_bias_rad_s;
-      fusion.init_sigma_gyro_bias_rad_s = opt.static_gyro_bias_sigma_rad_s;
+      run.fusion.init_sigma_gyro_bias_rad_s = run.opt.static_gyro_bias_sigma_rad_s;
     }
   }
+  run.gap_lo = g0.t_ns + s_to_ns(run.opt.gap_start_s);
+  run.gap_hi = run.gap_lo + s_to_ns(run.opt.gap_s);
+}
 
-  auto run_filter = [&](bool with_gap, bool imu_rate, fusion::FusionCounters* counters) {
-    fusion::FusionEngine engine(fusion);
-    engine.initialize(x0);
-    const TimeNs gap_lo = g0.t_ns + s_to_ns(opt.gap_start_s);
-    const TimeNs gap_hi = gap_lo + s_to_ns(opt.gap_s);
-    for (const auto& s : imu) engine.add_imu(s);
-    for (const auto& m : with_gap ? make_measurements(gap_lo, gap_hi) : meas)
-      engine.add_relative_pose(m);
-    auto out = engine.flush(imu_rate);
-    if (counters) *counters = engine.counters();
-    return out;
-  };
+// The filter on the whole IMU and the measurements: its states at the odometry's time stamps,
+// or at the IMU's rate.
+std::vector<fusion::FusedState> run_filter(const EurocRun& run,
+                                           const std::vector<fusion::RelativePoseMeasurement>& meas,
+                                           bool imu_rate, fusion::FusionCounters* counters) {
+  fusion::FusionEngine engine(run.fusion);
+  engine.initialize(run.x0);
+  for (const auto& s : run.imu()) engine.add_imu(s);
+  for (const auto& m : meas) engine.add_relative_pose(m);
+  auto out = engine.flush(imu_rate);
+  if (counters) *counters = engine.counters();
+  return out;
+}
 
+// What the run is: its name, the IMU's agreement with the ground truth, the measurements and
+// the span of the frames.
+EurocExperimentResult summarise_run(const EurocRun& run, const std::string& name,
+                                    std::size_t measurements) {
   EurocExperimentResult r;
   r.name = name;
-  r.imu_consistency =
-      imu_consistency(imu, gt, yaml_noise, Vector3d(0.0, 0.0, -fusion.gravity_m_s2), 1.0);
-  r.measurements = meas.size();
-  r.duration_s = ns_to_s(gt[frames.back()].t_ns - g0.t_ns);
+  r.imu_consistency = imu_consistency(run.imu(), run.gt(), run.yaml_noise,
+                                      Vector3d(0.0, 0.0, -run.fusion.gravity_m_s2), 1.0);
+  r.measurements = measurements;
+  r.duration_s = ns_to_s(run.gt()[run.frames.back()].t_ns - run.first_frame().t_ns);
+  return r;
+}
 
-  // 1. No gap: errors at the odometry time stamps, fused and chained.
-  const auto fused = run_filter(false, false, &r.counters);
-  // Chaining: the camera pose is the chained reference times the latest relative pose; the
-  // chain moves to a frame when it becomes the reference.
-  SE3 chain_ref_w_c = g0.T_world_body * T_bc;
+// The fused run's position and rotation RMSE at the odometry time stamps.
+void score_fused(const EurocRun& run, const std::vector<fusion::FusedState>& fused,
+                 EurocExperimentResult& r) {
+  double se = 0.0, re = 0.0;
+  std::size_t n = 0;
+  for (const fusion::FusedState& f : fused) {
+    if (!f.at_odometry) continue;
+    const GroundTruthSample* g = gt_at(run.index, run.gt(), f.t_ns);
+    if (g == nullptr) continue;
+    const SE3 T_fused = f.state.T_world_body();
+    se += (T_fused.translation() - g->T_world_body.translation()).squaredNorm();
+    re += std::pow(rotation_error_deg(T_fused, g->T_world_body), 2);
+    ++n;
+  }
+  r.fused_rmse_m = std::sqrt(se / static_cast<double>(n));
+  r.fused_rot_rmse_deg = std::sqrt(re / static_cast<double>(n));
+}
+
+// The baseline: the same measurements chained, scored where the fused run is. The camera pose
+// is the chained reference times the latest relative pose; the chain moves to a frame when it
+// becomes the reference.
+void score_chained(const EurocRun& run, const std::vector<fusion::FusedState>& fused,
+                   const std::vector<fusion::RelativePoseMeasurement>& meas,
+                   EurocExperimentResult& r) {
+  const SE3& T_bc = run.fusion.T_body_cam;
+  SE3 chain_ref_w_c = run.first_frame().T_world_body * T_bc;
   SE3 chain_w_c = chain_ref_w_c;
-  double se_f = 0.0, se_c = 0.0, re_f = 0.0, re_c = 0.0;
+  double se = 0.0, re = 0.0;
   std::size_t n = 0;
   std::size_t mi = 0;
-  bool checked = false;
-  const TimeNs t_check = g0.t_ns + s_to_ns(opt.bias_check_after_s);
   for (const fusion::FusedState& f : fused) {
     if (!f.at_odometry) continue;
     while (mi < meas.size() && meas[mi].t_ns <= f.t_ns) {
       chain_w_c = chain_ref_w_c * meas[mi].T_ref_cur;
       if (meas[mi++].starts_new_reference) chain_ref_w_c = chain_w_c;
     }
-    const GroundTruthSample* g = gt_at(index, gt, f.t_ns);
+    const GroundTruthSample* g = gt_at(run.index, run.gt(), f.t_ns);
     if (g == nullptr) continue;
     const SE3 T_chain = chain_w_c * T_bc.inverse();
-    const SE3 T_fused = f.state.T_world_body();
-    se_f += (T_fused.translation() - g->T_world_body.translation()).squaredNorm();
-    se_c += (T_chain.translation() - g->T_world_body.translation()).squaredNorm();
-    re_f += std::pow(rotation_error_deg(T_fused, g->T_world_body), 2);
-    re_c += std::pow(rotation_error_deg(T_chain, g->T_world_body), 2);
+    se += (T_chain.translation() - g->T_world_body.translation()).squaredNorm();
+    re += std::pow(rotation_error_deg(T_chain, g->T_world_body), 2);
     ++n;
+  }
+  r.chained_rmse_m = std::sqrt(se / static_cast<double>(n));
+  r.chained_rot_rmse_deg = std::sqrt(re / static_cast<double>(n));
+}
+
+// The fused run's gyro bias against the ground truth's, from bias_check_after_s on, and its
+// last value.
+void check_gyro_bias(const EurocRun& run, const std::vector<fusion::FusedState>& fused,
+                     EurocExperimentResult& r) {
+  const TimeNs t_check = run.first_frame().t_ns + s_to_ns(run.opt.bias_check_after_s);
+  bool checked = false;
+  for (const fusion::FusedState& f : fused) {
+    if (!f.at_odometry) continue;
+    const GroundTruthSample* g = gt_at(run.index, run.gt(), f.t_ns);
+    if (g == nullptr) continue;
     if (g->has_bias && f.t_ns >= t_check) {
       const double e = (f.state.gyro_bias_rad_s - g->gyro_bias).norm();
       if (!checked) {
@@ -311,78 +388,109 @@ EurocExperimentResult run_euroc_experiment(const std::string& name,
     r.gyro_bias_final = f.state.gyro_bias_rad_s;
   }
   r.gyro_bias_checked = checked;
-  r.fused_rmse_m = std::sqrt(se_f / static_cast<double>(n));
-  r.chained_rmse_m = std::sqrt(se_c / static_cast<double>(n));
-  r.fused_rot_rmse_deg = std::sqrt(re_f / static_cast<double>(n));
-  r.chained_rot_rmse_deg = std::sqrt(re_c / static_cast<double>(n));
+}
 
-  // 2. A gap: IMU-rate output, errors wherever a ground-truth sample exists.
-  const auto gapped = run_filter(true, true, nullptr);
-  const TimeNs gap_lo = g0.t_ns + s_to_ns(opt.gap_start_s);
-  const TimeNs gap_hi = gap_lo + s_to_ns(opt.gap_s);
+// The gap run (IMU-rate output): errors wherever a ground-truth sample exists, in the gap and
+// over the whole run.
+void score_gap(const EurocRun& run, const std::vector<fusion::FusedState>& gapped,
+               EurocExperimentResult& r) {
   double error_at_start = -1.0;
   for (const fusion::FusedState& f : gapped) {
-    const GroundTruthSample* g = gt_at(index, gt, f.t_ns);
+    const GroundTruthSample* g = gt_at(run.index, run.gt(), f.t_ns);
     if (g == nullptr || std::llabs(g->t_ns - f.t_ns) > 1'000'000) continue;
     const double e = (f.state.p_world - g->T_world_body.translation()).norm();
     r.gap_run_max_error_m = std::max(r.gap_run_max_error_m, e);
-    if (f.t_ns >= gap_lo && error_at_start < 0.0) error_at_start = e;
-    if (f.t_ns >= gap_lo && f.t_ns <= gap_hi) {
+    if (f.t_ns >= run.gap_lo && error_at_start < 0.0) error_at_start = e;
+    if (f.t_ns >= run.gap_lo && f.t_ns <= run.gap_hi) {
       r.gap_max_error_m = std::max(r.gap_max_error_m, e);
       r.gap_max_sigma_p_m = std::max(r.gap_max_sigma_p_m, f.sigma.head<3>().norm());
       if (f.flags & fusion::kFlagVoDropout) r.gap_flag_raised = true;
     }
   }
   r.gap_error_growth_m = r.gap_max_error_m - std::max(0.0, error_at_start);
+}
 
-  // Where the gap's error comes from: the first IMU-rate state after the last update before the
-  // gap (one IMU step into it) that has a ground-truth sample with biases.
+// Where the gap's error comes from: the first IMU-rate state after the last update before the
+// gap (one IMU step into it) that has a ground-truth sample with biases.
+void decompose_gap(const EurocRun& run, const std::vector<fusion::FusedState>& gapped,
+                   EurocExperimentResult& r) {
+  const std::vector<GroundTruthSample>& gt = run.gt();
   const fusion::FusedState* start = nullptr;
   const GroundTruthSample* truth = nullptr;
   for (const fusion::FusedState& f : gapped) {
-    if (f.t_ns < gap_lo + 5'000'000) continue;
-    truth = gt_at(index, gt, f.t_ns);
+    if (f.t_ns < run.gap_lo + 5'000'000) continue;
+    truth = gt_at(run.index, gt, f.t_ns);
     if (truth != nullptr) {
       start = &f;
       break;
     }
   }
-  if (start != nullptr && truth->has_bias && start->t_ns < gap_hi) {
-    auto& d = r.gap_decomposition;
-    const fusion::NominalState& xf = start->state;
-    fusion::NominalState xt = xf;
-    xt.p_world = truth->T_world_body.translation();
-    xt.q_world_body = truth->T_world_body.unit_quaternion();
-    xt.v_world = truth->v_world;
-    xt.gyro_bias_rad_s = truth->gyro_bias;
-    xt.accel_bias_m_s2 = truth->accel_bias;
-    d.measured = true;
-    d.dp = xf.p_world - xt.p_world;
-    d.dv = xf.v_world - xt.v_world;
-    d.dtheta_deg = (SO3(xt.q_world_body).inverse() * SO3(xf.q_world_body)).log() * kRadToDeg;
-    d.d_accel_bias = xf.accel_bias_m_s2 - xt.accel_bias_m_s2;
-    d.sigma_v = start->sigma.segment<3>(6);
-    d.sigma_theta_deg = start->sigma.segment<3>(3) * kRadToDeg;
-    const Vector3d g_world(0.0, 0.0, -fusion.gravity_m_s2);
-    auto run = [&](const fusion::NominalState& x) {
-      return dead_reckoning_max_error(x, gap_hi, imu, index, gt, g_world);
-    };
-    d.truth = run(xt);
-    fusion::NominalState x = xt;
-    x.p_world = xf.p_world;
-    d.with_position = run(x);
-    x = xt;
-    x.v_world = xf.v_world;
-    d.with_velocity = run(x);
-    x = xt;
-    x.q_world_body = xf.q_world_body;
-    d.with_attitude = run(x);
-    x = xt;
-    x.gyro_bias_rad_s = xf.gyro_bias_rad_s;
-    x.accel_bias_m_s2 = xf.accel_bias_m_s2;
-    d.with_biases = run(x);
-    d.filter = run(xf);
+  if (start == nullptr || !truth->has_bias || start->t_ns >= run.gap_hi) return;
+  auto& d = r.gap_decomposition;
+  const fusion::NominalState& xf = start->state;
+  fusion::NominalState xt = xf;
+  xt.p_world = truth->T_world_body.translation();
+  xt.q_world_body = truth->T_world_body.unit_quaternion();
+  xt.v_world = truth->v_world;
+  xt.gyro_bias_rad_s = truth->gyro_bias;
+  xt.accel_bias_m_s2 = truth->accel_bias;
+  d.measured = true;
+  d.dp = xf.p_world - xt.p_world;
+  d.dv = xf.v_world - xt.v_world;
+  d.dtheta_deg = (SO3(xt.q_world_body).inverse() * SO3(xf.q_world_body)).log() * kRadToDeg;
+  d.d_accel_bias = xf.accel_bias_m_s2 - xt.accel_bias_m_s2;
+  d.sigma_v = start->sigma.segment<3>(6);
+  d.sigma_theta_deg = start->sigma.segment<3>(3) * kRadToDeg;
+  const Vector3d g_world(0.0, 0.0, -run.fusion.gravity_m_s2);
+  auto dead_reckon = [&](const fusion::NominalState& x) {
+    return dead_reckoning_max_error(x, run.gap_hi, run.imu(), run.index, gt, g_world);
+  };
+  d.truth = dead_reckon(xt);
+  fusion::NominalState x = xt;
+  x.p_world = xf.p_world;
+  d.with_position = dead_reckon(x);
+  x = xt;
+  x.v_world = xf.v_world;
+  d.with_velocity = dead_reckon(x);
+  x = xt;
+  x.q_world_body = xf.q_world_body;
+  d.with_attitude = dead_reckon(x);
+  x = xt;
+  x.gyro_bias_rad_s = xf.gyro_bias_rad_s;
+  x.accel_bias_m_s2 = xf.accel_bias_m_s2;
+  d.with_biases = dead_reckon(x);
+  d.filter = dead_reckon(xf);
+}
+
+}  // namespace
+
+EurocExperimentResult run_euroc_experiment(const std::string& name,
+                                           const std::vector<io::ImuSample>& real_imu,
+                                           const std::vector<GroundTruthSample>& real_gt,
+                                           fusion::FusionOptions fusion,
+                                           const EurocExperimentOptions& opt) {
+  if (real_imu.size() < 2 || real_gt.size() < 3) {
+    throw InputError(name + ": not enough IMU or ground truth");
   }
+  EurocRun run(real_imu, real_gt, std::move(fusion), opt);
+  load_inputs(run);
+  select_frames(run, name);
+  draw_odometry_noise(run);
+  const std::vector<fusion::RelativePoseMeasurement> meas = make_measurements(run, 0, 0);
+  initial_state(run);
+  EurocExperimentResult r = summarise_run(run, name, meas.size());
+
+  // 1. No gap: errors at the odometry time stamps, fused and chained.
+  const auto fused = run_filter(run, meas, false, &r.counters);
+  score_fused(run, fused, r);
+  score_chained(run, fused, meas, r);
+  check_gyro_bias(run, fused, r);
+
+  // 2. A gap: IMU-rate output, errors wherever a ground-truth sample exists.
+  const auto gapped =
+      run_filter(run, make_measurements(run, run.gap_lo, run.gap_hi), true, nullptr);
+  score_gap(run, gapped, r);
+  decompose_gap(run, gapped, r);
   return r;
 }
 

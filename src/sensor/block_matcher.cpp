@@ -23,8 +23,8 @@
 #include <immintrin.h>
 #endif
 
-// The fast row's per-pixel lambdas must be inlined into their loops (GCC otherwise calls the
-// larger ones, with every captured variable reloaded through the closure).
+// The fast row's per-pixel helpers must be inlined into their loops (GCC otherwise calls the
+// larger ones, with every field of their state reloaded through the reference).
 #if defined(__GNUC__)
 #define KESTREL_INLINE __attribute__((always_inline))
 #else
@@ -675,141 +675,186 @@ void scan_row_generic(const RowScan& s) {
 }
 
 #if defined(__AVX2__)
+KESTREL_INLINE inline __m256i load_lanes(const std::uint16_t* p) {
+  return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+}
+KESTREL_INLINE inline void store_lanes(std::uint16_t* p, __m256i v) {
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
+}
+
+/// scan_row_avx2's state along one row (lanes = 16 NV): the box costs, the right view's
+/// running minima and the window's texture sum, all kept in registers. Its helpers are left
+/// to the inliner (which inlines them all): forcing it changes how GCC peels and unswitches
+/// the pixel loops.
+template <int NV>
+struct Avx2Scan {
+  explicit Avx2Scan(const RowScan& row)
+      : s(row),
+        L(static_cast<std::size_t>(row.lanes)),
+        block(2 * row.radius + 1),
+        cs(row.column_sums),
+        slide(row.left_new != nullptr) {}
+
+  const RowScan& s;
+  std::size_t L;
+  int block;
+  std::uint16_t* cs;
+  bool slide;  // SAD: the scan slides the column sums itself
+  __m256i box[NV], win[NV];
+  std::uint32_t tex;
+};
+
+/// Column c slid down one row, returned in registers and stored (SAD only).
+template <int NV>
+inline void avx2_slide_column(const Avx2Scan<NV>& t, int c, __m256i* out) {
+  const RowScan& s = t.s;
+  std::uint16_t* col = t.cs + static_cast<std::size_t>(c) * t.L;
+  if (!t.slide) {
+    for (int i = 0; i < NV; ++i) out[i] = load_lanes(col + 16 * i);
+    return;
+  }
+  const __m256i vln = _mm256_set1_epi8(static_cast<char>(s.left_new[c]));
+  const __m256i vlo = _mm256_set1_epi8(static_cast<char>(s.left_old[c]));
+  for (int i = 0; i < NV; i += 2) {
+    const __m256i r_new =
+        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s.right_new + c + 16 * i));
+    const __m256i r_old =
+        _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s.right_old + c + 16 * i));
+    const __m256i a_new =
+        _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
+    const __m256i a_old =
+        _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
+    __m256i s0 = load_lanes(col + 16 * i);
+    __m256i s1 = load_lanes(col + 16 * i + 16);
+    s0 = _mm256_add_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_new)));
+    s0 = _mm256_sub_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_old)));
+    s1 = _mm256_add_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_new, 1)));
+    s1 = _mm256_sub_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_old, 1)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(col + 16 * i), s0);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(col + 16 * i + 16), s1);
+    out[i] = s0;
+    out[i + 1] = s1;
+  }
+}
+
+/// The box and texture sum of pixel 0's window (columns 0 .. 2r), the right view's minima
+/// empty.
+template <int NV>
+inline void avx2_scan_begin(Avx2Scan<NV>& t) {
+  const __m256i ones = _mm256_set1_epi16(-1);
+  for (int i = 0; i < NV; ++i) {
+    t.box[i] = _mm256_setzero_si256();
+    t.win[i] = ones;
+  }
+  t.tex = 0;
+  for (int c = 0; c < t.block; ++c) {
+    __m256i col[NV];
+    avx2_slide_column(t, c, col);
+    for (int i = 0; i < NV; ++i) t.box[i] = _mm256_add_epi16(t.box[i], col[i]);
+    t.tex += t.s.texture_columns[c];
+  }
+}
+
+/// Pixel x: slide the box, store it in the volume, fold it into the right view's minima, and
+/// the winner and the row scan's checks. kMasked: lanes below first_lane(x) are out of range.
+template <bool kMasked, int NV>
+inline void avx2_scan_pixel(Avx2Scan<NV>& t, int x) {
+  const RowScan& s = t.s;
+  const __m256i ones = _mm256_set1_epi16(-1);
+  const __m256i iota = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const __m256i two = _mm256_set1_epi16(2);
+  if (x > 0) {
+    __m256i add[NV];
+    avx2_slide_column(t, x + 2 * s.radius, add);
+    const std::uint16_t* sub = t.cs + static_cast<std::size_t>(x - 1) * t.L;
+    for (int i = 0; i < NV; ++i) {
+      t.box[i] = _mm256_sub_epi16(_mm256_add_epi16(t.box[i], add[i]), load_lanes(sub + 16 * i));
+    }
+    t.tex += s.texture_columns[x + 2 * s.radius] - s.texture_columns[x - 1];
+  }
+  std::uint16_t* vol = s.volume + static_cast<std::size_t>(x) * t.L;
+  for (int i = 0; i < NV; ++i) {
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(vol + 16 * i), t.box[i]);
+  }
+  const int first = kMasked ? s.first_lane(x) : 0;
+  __m256i v[NV];
+  for (int i = 0; i < NV; ++i) {
+    if constexpr (kMasked) {
+      const __m256i f = _mm256_set1_epi16(static_cast<short>(first - 16 * i));
+      v[i] = _mm256_or_si256(t.box[i], _mm256_cmpgt_epi16(f, iota));
+    } else {
+      v[i] = t.box[i];
+    }
+  }
+  // Right view: lane k holds right pixel x - d_top + k; lane 0 is complete after this x.
+  for (int i = 0; i < NV; ++i) t.win[i] = _mm256_min_epu16(t.win[i], v[i]);
+  s.right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(t.win[0], 0));
+  for (int i = 0; i < NV; ++i) {
+    const __m256i next = i + 1 < NV ? t.win[i + 1] : ones;
+    t.win[i] = _mm256_alignr_epi8(_mm256_permute2x128_si256(t.win[i], next, 0x21), t.win[i], 2);
+  }
+  s.winner_lane[x] = -1;
+  if (kMasked && first >= s.lanes) {
+    s.state[x] = kUnreachable;
+    return;
+  }
+  __m256i m = v[0];
+  for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
+  const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
+  const int c0 = _mm_extract_epi16(_mm_minpos_epu16(m8), 0);
+  const __m256i target = _mm256_set1_epi16(static_cast<short>(c0));
+  int best = 0;
+  for (int i = 0; i < NV; i += 2) {
+    const auto lo =
+        static_cast<std::uint32_t>(_mm256_movemask_epi8(_mm256_cmpeq_epi16(v[i], target)));
+    const auto hi =
+        static_cast<std::uint32_t>(_mm256_movemask_epi8(_mm256_cmpeq_epi16(v[i + 1], target)));
+    const std::uint64_t mask = lo | (static_cast<std::uint64_t>(hi) << 32);
+    if (mask != 0) {
+      best = 16 * i + std::countr_zero(mask) / 2;
+      break;
+    }
+  }
+  if (t.tex < s.texture_min) {
+    s.state[x] = kLowTexture;
+    return;
+  }
+  if (s.uniqueness > 0) {
+    // Lanes within 1 of the winner: (k - (best - 1)) as unsigned <= 2.
+    __m256i m2 = ones;
+    for (int i = 0; i < NV; ++i) {
+      const __m256i d =
+          _mm256_sub_epi16(iota, _mm256_set1_epi16(static_cast<short>(best - 1 - 16 * i)));
+      const __m256i near = _mm256_cmpeq_epi16(_mm256_min_epu16(d, two), d);
+      m2 = _mm256_min_epu16(m2, _mm256_or_si256(v[i], near));
+    }
+    const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
+    const int second = _mm_extract_epi16(_mm_minpos_epu16(s8), 0);
+    if (second * 100 <= c0 * (100 + s.uniqueness)) {
+      s.state[x] = kNotUnique;
+      return;
+    }
+  }
+  s.state[x] = kCandidate;
+  s.winner_lane[x] = best;
+}
+
 /// The AVX2 scan for lanes = 16 NV: the box costs, the right view's running minima and the
 /// winner search stay in registers; the right view's window slides down one lane per pixel.
 template <int NV>
 void scan_row_avx2(const RowScan& s) {
-  const auto L = static_cast<std::size_t>(s.lanes);
-  const int block = 2 * s.radius + 1;
-  std::uint16_t* cs = s.column_sums;
-  const auto load = [](const std::uint16_t* p) {
-    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
-  };
-  const bool slide = s.left_new != nullptr;
-  // Column c slid down one row, returned in registers and stored (SAD only).
-  const auto slide_column = [&](int c, __m256i* out) {
-    std::uint16_t* col = cs + static_cast<std::size_t>(c) * L;
-    if (!slide) {
-      for (int i = 0; i < NV; ++i) out[i] = load(col + 16 * i);
-      return;
-    }
-    const __m256i vln = _mm256_set1_epi8(static_cast<char>(s.left_new[c]));
-    const __m256i vlo = _mm256_set1_epi8(static_cast<char>(s.left_old[c]));
-    for (int i = 0; i < NV; i += 2) {
-      const __m256i r_new = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s.right_new + c + 16 * i));
-      const __m256i r_old = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(s.right_old + c + 16 * i));
-      const __m256i a_new = _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
-      const __m256i a_old = _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
-      __m256i s0 = load(col + 16 * i);
-      __m256i s1 = load(col + 16 * i + 16);
-      s0 = _mm256_add_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_new)));
-      s0 = _mm256_sub_epi16(s0, _mm256_cvtepu8_epi16(_mm256_castsi256_si128(a_old)));
-      s1 = _mm256_add_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_new, 1)));
-      s1 = _mm256_sub_epi16(s1, _mm256_cvtepu8_epi16(_mm256_extracti128_si256(a_old, 1)));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(col + 16 * i), s0);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(col + 16 * i + 16), s1);
-      out[i] = s0;
-      out[i + 1] = s1;
-    }
-  };
-  const __m256i ones = _mm256_set1_epi16(-1);
-  const __m256i iota = _mm256_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const __m256i two = _mm256_set1_epi16(2);
-  __m256i box[NV], win[NV];
-  for (int i = 0; i < NV; ++i) {
-    box[i] = _mm256_setzero_si256();
-    win[i] = ones;
-  }
-  std::uint32_t tex = 0;
-  for (int c = 0; c < block; ++c) {
-    __m256i col[NV];
-    slide_column(c, col);
-    for (int i = 0; i < NV; ++i) box[i] = _mm256_add_epi16(box[i], col[i]);
-    tex += s.texture_columns[c];
-  }
+  Avx2Scan<NV> t(s);
+  avx2_scan_begin(t);
   // Pixels x < x_full have out-of-range lanes (first_lane(x) > 0) that must be masked.
   const int x_full = s.lanes > s.num ? s.width : std::min(s.width, std::max(0, s.d_top + 1));
-  const auto pixel = [&](int x, auto masked_tag) {
-    constexpr bool kMasked = decltype(masked_tag)::value;
-    if (x > 0) {
-      __m256i add[NV];
-      slide_column(x + 2 * s.radius, add);
-      const std::uint16_t* sub = cs + static_cast<std::size_t>(x - 1) * L;
-      for (int i = 0; i < NV; ++i) {
-        box[i] = _mm256_sub_epi16(_mm256_add_epi16(box[i], add[i]), load(sub + 16 * i));
-      }
-      tex += s.texture_columns[x + 2 * s.radius] - s.texture_columns[x - 1];
-    }
-    std::uint16_t* vol = s.volume + static_cast<std::size_t>(x) * L;
-    for (int i = 0; i < NV; ++i) _mm256_storeu_si256(reinterpret_cast<__m256i*>(vol + 16 * i), box[i]);
-    const int first = kMasked ? s.first_lane(x) : 0;
-    __m256i v[NV];
-    for (int i = 0; i < NV; ++i) {
-      if constexpr (kMasked) {
-        const __m256i f = _mm256_set1_epi16(static_cast<short>(first - 16 * i));
-        v[i] = _mm256_or_si256(box[i], _mm256_cmpgt_epi16(f, iota));
-      } else {
-        v[i] = box[i];
-      }
-    }
-    // Right view: lane k holds right pixel x - d_top + k; lane 0 is complete after this x.
-    for (int i = 0; i < NV; ++i) win[i] = _mm256_min_epu16(win[i], v[i]);
-    s.right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(win[0], 0));
-    for (int i = 0; i < NV; ++i) {
-      const __m256i next = i + 1 < NV ? win[i + 1] : ones;
-      win[i] = _mm256_alignr_epi8(_mm256_permute2x128_si256(win[i], next, 0x21), win[i], 2);
-    }
-    s.winner_lane[x] = -1;
-    if (kMasked && first >= s.lanes) {
-      s.state[x] = kUnreachable;
-      return;
-    }
-    __m256i m = v[0];
-    for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
-    const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
-    const int c0 = _mm_extract_epi16(_mm_minpos_epu16(m8), 0);
-    const __m256i target = _mm256_set1_epi16(static_cast<short>(c0));
-    int best = 0;
-    for (int i = 0; i < NV; i += 2) {
-      const auto lo = static_cast<std::uint32_t>(_mm256_movemask_epi8(_mm256_cmpeq_epi16(v[i], target)));
-      const auto hi = static_cast<std::uint32_t>(_mm256_movemask_epi8(_mm256_cmpeq_epi16(v[i + 1], target)));
-      const std::uint64_t mask = lo | (static_cast<std::uint64_t>(hi) << 32);
-      if (mask != 0) {
-        best = 16 * i + std::countr_zero(mask) / 2;
-        break;
-      }
-    }
-    if (tex < s.texture_min) {
-      s.state[x] = kLowTexture;
-      return;
-    }
-    if (s.uniqueness > 0) {
-      // Lanes within 1 of the winner: (k - (best - 1)) as unsigned <= 2.
-      __m256i m2 = ones;
-      for (int i = 0; i < NV; ++i) {
-        const __m256i t = _mm256_sub_epi16(iota, _mm256_set1_epi16(static_cast<short>(best - 1 - 16 * i)));
-        const __m256i near = _mm256_cmpeq_epi16(_mm256_min_epu16(t, two), t);
-        m2 = _mm256_min_epu16(m2, _mm256_or_si256(v[i], near));
-      }
-      const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
-      const int second = _mm_extract_epi16(_mm_minpos_epu16(s8), 0);
-      if (second * 100 <= c0 * (100 + s.uniqueness)) {
-        s.state[x] = kNotUnique;
-        return;
-      }
-    }
-    s.state[x] = kCandidate;
-    s.winner_lane[x] = best;
-  };
-  for (int x = 0; x < x_full; ++x) pixel(x, std::true_type{});
-  for (int x = x_full; x < s.width; ++x) pixel(x, std::false_type{});
+  for (int x = 0; x < x_full; ++x) avx2_scan_pixel<true>(t, x);
+  for (int x = x_full; x < s.width; ++x) avx2_scan_pixel<false>(t, x);
   // Right pixels not yet emitted: lane k now holds right pixel width - d_top + k.
   for (int i = 0; i < NV; ++i) {
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(s.right_min + s.width + 16 * i), win[i]);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(s.right_min + s.width + 16 * i), t.win[i]);
   }
   // Columns past the last window (x + 2r > width - 1 + 2r never happens): all were slid.
 }
-
 
 struct FastRow {
   std::uint16_t* ring;              // kRingSlots slots: tagged box costs of pixel x at x % slots
@@ -825,337 +870,488 @@ struct FastRow {
 /// row itself from the SAD rows.
 enum class Slide { kNone, kSad };
 
+/// scan_row_fast's state along one row, for 32 or 64 lanes (NV = 2 or 4 registers). The
+/// structs' fields are copied in, as locals: the per-pixel stores could alias the structs'
+/// fields, which would make the compiler reload them for every pixel. Its fields go to
+/// std::min and std::max as copies: those take references, and a reference to a field keeps
+/// the whole state in memory instead of in registers.
+template <int NV, Slide kSlide>
+struct FastScan {
+  static constexpr int L = 16 * NV;
+  static constexpr int kBits = NV == 2 ? 2 : 3;
+  // A ring slot: guard lanes, the lanes, guard lanes.
+  static constexpr int kSlot = L + 2 * kRingGuard;
+  int w, r, num, d_top, lr, lane_floor;
+  bool lr_check, uniqueness;
+  std::uint16_t* cs;
+  std::uint16_t* right_min;
+  std::uint16_t* ring;
+  std::uint16_t* fields;
+  const std::uint16_t* near_masks;
+  const std::int16_t* position;
+  const std::uint8_t* left_new;
+  const std::uint8_t* left_old;
+  const std::uint8_t* right_new;
+  const std::uint8_t* right_old;
+  // Storage order (see lane_at_position): vector 2g + v holds lanes 32g + 8v + {0..7} in its
+  // low half and 32g + 16 + 8v + {0..7} in its high half.
+  __m256i lane_of[NV], box[NV], win[NV];
+};
+
+/// Position 0 of pixel x's slot. Pixels -lr..-1 and w..w+lr-1 read as masked.
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline std::uint16_t* fast_ring_at(const FastScan<NV, kSlide>& t, int x) {
+  return t.ring + static_cast<std::size_t>(x & (kRingSlots - 1)) * FastScan<NV, kSlide>::kSlot +
+         kRingGuard;
+}
+
+/// Column c slid down one row (kSlide), in registers and stored back.
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_slide_column(const FastScan<NV, kSlide>& t, int c, __m256i* out) {
+  std::uint16_t* col = t.cs + static_cast<std::size_t>(c) * FastScan<NV, kSlide>::L;
+  if constexpr (kSlide == Slide::kNone) {
+    for (int i = 0; i < NV; ++i) out[i] = load_lanes(col + 16 * i);
+  } else {
+    // 2^kBits (|l - r| of the new row - |l - r| of the old one), 32 lanes at a time:
+    // pmaddubsw on the interleaved costs (weights 2^kBits, -2^kBits) subtracts, widens and
+    // scales in one step (|result| <= 8 * 255, no saturation) and yields the storage order
+    // directly.
+    constexpr int kScale = 1 << FastScan<NV, kSlide>::kBits;
+    const __m256i weights = _mm256_set1_epi16(static_cast<short>(((256 - kScale) << 8) | kScale));
+    const __m256i vln = _mm256_set1_epi8(static_cast<char>(t.left_new[c]));
+    const __m256i vlo = _mm256_set1_epi8(static_cast<char>(t.left_old[c]));
+    for (int i = 0; i < NV; i += 2) {
+      const __m256i r_new =
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.right_new + c + 16 * i));
+      const __m256i r_old =
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.right_old + c + 16 * i));
+      const __m256i a_new =
+          _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
+      const __m256i a_old =
+          _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
+      const __m256i s0 =
+          _mm256_add_epi16(load_lanes(col + 16 * i),
+                           _mm256_maddubs_epi16(_mm256_unpacklo_epi8(a_new, a_old), weights));
+      const __m256i s1 =
+          _mm256_add_epi16(load_lanes(col + 16 * i + 16),
+                           _mm256_maddubs_epi16(_mm256_unpackhi_epi8(a_new, a_old), weights));
+      store_lanes(col + 16 * i, s0);
+      store_lanes(col + 16 * i + 16, s1);
+      out[i] = s0;
+      out[i + 1] = s1;
+    }
+  }
+}
+
+/// The row's state from the structs, the guard slots of pixels -kFastMaxLrDiff..-1, and the
+/// tagged box of pixel 0's window (columns 0 .. 2r).
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_scan_begin(FastScan<NV, kSlide>& t, const RowScan& s,
+                                           const FastRow& f) {
+  t.w = s.width;
+  t.r = s.radius;
+  t.num = s.num;
+  t.d_top = s.d_top;
+  t.lr = f.lr_max_diff;
+  t.lr_check = t.lr >= 0;
+  t.uniqueness = s.uniqueness > 0;
+  t.cs = s.column_sums;
+  t.right_min = s.right_min;
+  t.ring = f.ring;
+  t.fields = f.fields;
+  t.near_masks = f.near_masks;
+  t.position = f.position;
+  t.left_new = s.left_new;
+  t.left_old = s.left_old;
+  t.right_new = s.right_new;
+  t.right_old = s.right_old;
+  t.lane_floor = FastScan<NV, kSlide>::L - t.num;
+  const __m256i ones = _mm256_set1_epi16(-1);
+  for (int x = -kFastMaxLrDiff; x < 0; ++x) {
+    for (int i = 0; i < NV; ++i) store_lanes(fast_ring_at(t, x) + 16 * i, ones);
+  }
+  for (int i = 0; i < NV; ++i) {
+    alignas(32) std::int16_t lanes_here[16];
+    for (int k = 0; k < 16; ++k) {
+      lanes_here[k] = static_cast<std::int16_t>(lane_at_position(16 * i + k));
+    }
+    t.lane_of[i] = _mm256_load_si256(reinterpret_cast<const __m256i*>(lanes_here));
+    // The tag lane / 8 in the low bits: the costs themselves are stored times 2^kBits.
+    t.box[i] = _mm256_srli_epi16(t.lane_of[i], 3);
+    t.win[i] = ones;
+  }
+  for (int c = 0; c <= 2 * t.r; ++c) {
+    __m256i col[NV];
+    fast_slide_column(t, c, col);
+    for (int i = 0; i < NV; ++i) t.box[i] = _mm256_add_epi16(t.box[i], col[i]);
+  }
+}
+
+/// The winner of pixel x: cost and first lane from one fold and one phminposuw (tagged costs).
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_store_winner(const FastScan<NV, kSlide>& t, int x,
+                                             const __m256i* v) {
+  constexpr int kBits = FastScan<NV, kSlide>::kBits;
+  __m256i m = v[0];
+  for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
+  const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
+  const auto mp = static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m8)));
+  const std::uint32_t tagged = mp & 0xFFFFU;
+  t.fields[kFieldCost * kFieldStride + x] = static_cast<std::uint16_t>(tagged);
+  t.fields[kFieldBest * kFieldStride + x] =
+      static_cast<std::uint16_t>(((tagged & ((1U << kBits) - 1U)) << 3) | ((mp >> 16) & 7U));
+}
+
+/// Right view: lane k holds right pixel x - d_top + k; lane 0 (position 0) is complete after
+/// this x. The window then moves down one lane: in storage order the low vector of a group
+/// takes the high one's first lane of each half, the high vector takes the low vector's
+/// second half and the next group's first.
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_fold_right(FastScan<NV, kSlide>& t, int x, const __m256i* v) {
+  const __m256i ones = _mm256_set1_epi16(-1);
+  for (int i = 0; i < NV; ++i) t.win[i] = _mm256_min_epu16(t.win[i], v[i]);
+  t.right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(t.win[0], 0));
+  for (int g = 0; g < NV / 2; ++g) {
+    const __m256i a = t.win[2 * g], b = t.win[2 * g + 1];
+    const __m256i next = 2 * g + 2 < NV ? t.win[2 * g + 2] : ones;
+    t.win[2 * g] = _mm256_alignr_epi8(b, a, 2);
+    t.win[2 * g + 1] = _mm256_alignr_epi8(_mm256_permute2x128_si256(a, next, 0x21), b, 2);
+  }
+}
+
+/// Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in
+/// the ring, find the winner, and fold the costs into the right view's minima.
+template <bool kMasked, int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_scan_pixel(FastScan<NV, kSlide>& t, int x) {
+  if (x > 0) {
+    __m256i add[NV];
+    fast_slide_column(t, x + 2 * t.r, add);
+    const std::uint16_t* sub = t.cs + static_cast<std::size_t>(x - 1) * FastScan<NV, kSlide>::L;
+    for (int i = 0; i < NV; ++i) {
+      t.box[i] = _mm256_sub_epi16(_mm256_add_epi16(t.box[i], add[i]), load_lanes(sub + 16 * i));
+    }
+  }
+  __m256i v[NV];
+  if constexpr (kMasked) {  // lanes below first_lane(x) are out of range
+    const int lane_floor = t.lane_floor;
+    const __m256i first = _mm256_set1_epi16(static_cast<short>(std::max(lane_floor, t.d_top - x)));
+    for (int i = 0; i < NV; ++i) {
+      v[i] = _mm256_or_si256(t.box[i], _mm256_cmpgt_epi16(first, t.lane_of[i]));
+    }
+  } else {
+    for (int i = 0; i < NV; ++i) v[i] = t.box[i];
+  }
+  std::uint16_t* slot = fast_ring_at(t, x);
+  for (int i = 0; i < NV; ++i) store_lanes(slot + 16 * i, v[i]);
+  fast_store_winner(t, x, v);
+  if (t.lr_check) fast_fold_right(t, x, v);
+}
+
+/// Stage 2, pixel q = x - kLag: what the checks and the fit need around the winner, read
+/// back from the ring and the fields. Kept apart from stage 1 so that its dependency chain
+/// (winner -> mask -> second minimum) starts from stored inputs and overlaps the next
+/// pixels' stage 1, and so that its 16-bit loads find the 256-bit ring stores in the cache
+/// (a load from a store still in flight that it does not match cannot be forwarded and
+/// stalls). Masked lanes and the guard lanes and slots read as 0xFFFF, above every cost, so
+/// the reads need no range checks: a minimum ignores them and the fit is not made there.
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_check_pixel(const FastScan<NV, kSlide>& t, int q) {
+  const std::uint16_t* slot = fast_ring_at(t, q);
+  std::uint16_t* fq = t.fields + q;
+  const int best = fq[kFieldBest * kFieldStride];
+  if (t.uniqueness) {
+    // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
+    const std::uint16_t* nm =
+        t.near_masks + static_cast<std::size_t>(best) * FastScan<NV, kSlide>::L;
+    __m256i m2 = _mm256_or_si256(load_lanes(slot), load_lanes(nm));
+    for (int i = 1; i < NV; ++i) {
+      const __m256i far = _mm256_or_si256(load_lanes(slot + 16 * i), load_lanes(nm + 16 * i));
+      m2 = _mm256_min_epu16(m2, far);
+    }
+    const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
+    fq[kFieldSecond * kFieldStride] =
+        static_cast<std::uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(s8)));
+  }
+  const int at_minus = t.position[best + 1], at_plus = t.position[best - 1];
+  fq[kFieldMinus * kFieldStride] = slot[at_minus];
+  fq[kFieldPlus * kFieldStride] = slot[at_plus];
+  if (t.lr_check) {
+    // The right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
+    std::uint16_t diag = fq[kFieldCost * kFieldStride];
+    if (t.lr == 1) {  // the default: the positions are the fit's
+      diag = std::min(diag,
+                      std::min(fast_ring_at(t, q + 1)[at_plus], fast_ring_at(t, q - 1)[at_minus]));
+    } else {
+      for (int j = 1; j <= t.lr; ++j) {
+        diag = std::min(diag, std::min(fast_ring_at(t, q + j)[t.position[best - j]],
+                                       fast_ring_at(t, q - j)[t.position[best + j]]));
+      }
+    }
+    fq[kFieldDiag * kFieldStride] = diag;
+  }
+}
+
+/// The last kLag pixels' stage 2, then the right view's last minima.
+template <int NV, Slide kSlide>
+KESTREL_INLINE inline void fast_scan_end(const FastScan<NV, kSlide>& t) {
+  constexpr int L = FastScan<NV, kSlide>::L;
+  const int w = t.w;
+  const __m256i ones = _mm256_set1_epi16(-1);
+  // The guard slots of pixels w.. overwrite pixels w - kRingSlots.., which only the pixels
+  // before q_guard still read.
+  const int q_guard = std::max(0, w - kFastMaxLrDiff);
+  for (int q = std::max(0, w - kLag); q < q_guard; ++q) fast_check_pixel(t, q);
+  for (int x = w; x < w + kFastMaxLrDiff; ++x) {
+    for (int i = 0; i < NV; ++i) store_lanes(fast_ring_at(t, x) + 16 * i, ones);
+  }
+  for (int q = std::max(q_guard, w - kLag); q < w; ++q) fast_check_pixel(t, q);
+  if (t.lr_check) {  // right pixels w - d_top + k, k < L: back to lane order
+    alignas(32) std::uint16_t rest[L];
+    for (int i = 0; i < NV; ++i) {
+      _mm256_store_si256(reinterpret_cast<__m256i*>(rest + 16 * i), t.win[i]);
+    }
+    for (int k = 0; k < L; ++k) t.right_min[w + k] = rest[t.position[k]];
+  }
+}
+
 /// The scan of one row for 32 or 64 lanes (NV = 2 or 4 registers). Box costs are TAGGED:
 /// 2^kBits * cost + lane / 8, so that the 8-way fold of the lanes (lane = 8 m + j) and one
 /// phminposuw give the best cost and the FIRST lane that reaches it: the order of (tagged
 /// value, j) is the order of (cost, lane). Per pixel it leaves the fields of FastField.
 template <int NV, Slide kSlide>
 void scan_row_fast(const RowScan& s, const FastRow& f) {
-  constexpr int L = 16 * NV;
-  constexpr int kBits = NV == 2 ? 2 : 3;
-  constexpr int kSlot = L + 2 * kRingGuard;  // a ring slot: guard lanes, the lanes, guard lanes
-  // Everything the loops use, as locals: the per-pixel stores could alias the structs'
-  // fields, which would make the compiler reload them for every pixel.
-  const int w = s.width, r = s.radius, num = s.num, d_top = s.d_top;
-  const int lr = f.lr_max_diff;
-  const bool lr_check = lr >= 0, uniqueness = s.uniqueness > 0;
-  std::uint16_t* const cs = s.column_sums;
-  std::uint16_t* const right_min = s.right_min;
-  std::uint16_t* const ring = f.ring;
-  std::uint16_t* const fields = f.fields;
-  const std::uint16_t* const near_masks = f.near_masks;
-  const std::int16_t* const position = f.position;
-  const std::uint8_t* const left_new = s.left_new;
-  const std::uint8_t* const left_old = s.left_old;
-  const std::uint8_t* const right_new = s.right_new;
-  const std::uint8_t* const right_old = s.right_old;
-  const int lane_floor = L - num;
-  const auto load = [](const std::uint16_t* p) {
-    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
-  };
-  const auto store = [](std::uint16_t* p, __m256i v) {
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), v);
-  };
-  // Position 0 of pixel x's slot. Pixels -lr..-1 and w..w+lr-1 read as masked.
-  const auto ring_at = [&](int x) { return ring + static_cast<std::size_t>(x & (kRingSlots - 1)) * kSlot + kRingGuard; };
-  const __m256i ones = _mm256_set1_epi16(-1);
-  for (int x = -kFastMaxLrDiff; x < 0; ++x) {
-    for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
-  }
-  // Storage order (see FastLayout): vector 2g + v holds lanes 32g + 8v + {0..7} in its low
-  // half and 32g + 16 + 8v + {0..7} in its high half.
-  __m256i lane_of[NV], box[NV], win[NV];
-  for (int i = 0; i < NV; ++i) {
-    alignas(32) std::int16_t lanes_here[16];
-    for (int t = 0; t < 16; ++t) lanes_here[t] = static_cast<std::int16_t>(lane_at_position(16 * i + t));
-    lane_of[i] = _mm256_load_si256(reinterpret_cast<const __m256i*>(lanes_here));
-    // The tag lane / 8 in the low bits: the costs themselves are stored times 2^kBits.
-    box[i] = _mm256_srli_epi16(lane_of[i], 3);
-    win[i] = ones;
-  }
-  const auto slide_column = [&](int c, __m256i* out) KESTREL_INLINE {
-    std::uint16_t* col = cs + static_cast<std::size_t>(c) * L;
-    if constexpr (kSlide == Slide::kNone) {
-      for (int i = 0; i < NV; ++i) out[i] = load(col + 16 * i);
-    } else {
-      // 2^kBits (|l - r| of the new row - |l - r| of the old one), 32 lanes at a time:
-      // pmaddubsw on the interleaved costs (weights 2^kBits, -2^kBits) subtracts, widens and
-      // scales in one step (|result| <= 8 * 255, no saturation) and yields the storage order
-      // directly.
-      constexpr int kScale = 1 << kBits;
-      const __m256i weights = _mm256_set1_epi16(static_cast<short>(((256 - kScale) << 8) | kScale));
-      const __m256i vln = _mm256_set1_epi8(static_cast<char>(left_new[c]));
-      const __m256i vlo = _mm256_set1_epi8(static_cast<char>(left_old[c]));
-      for (int i = 0; i < NV; i += 2) {
-        const __m256i r_new = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(right_new + c + 16 * i));
-        const __m256i r_old = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(right_old + c + 16 * i));
-        const __m256i a_new = _mm256_or_si256(_mm256_subs_epu8(vln, r_new), _mm256_subs_epu8(r_new, vln));
-        const __m256i a_old = _mm256_or_si256(_mm256_subs_epu8(vlo, r_old), _mm256_subs_epu8(r_old, vlo));
-        const __m256i s0 = _mm256_add_epi16(load(col + 16 * i), _mm256_maddubs_epi16(_mm256_unpacklo_epi8(a_new, a_old), weights));
-        const __m256i s1 = _mm256_add_epi16(load(col + 16 * i + 16), _mm256_maddubs_epi16(_mm256_unpackhi_epi8(a_new, a_old), weights));
-        store(col + 16 * i, s0);
-        store(col + 16 * i + 16, s1);
-        out[i] = s0;
-        out[i + 1] = s1;
-      }
-    }
-  };
-  for (int c = 0; c <= 2 * r; ++c) {
-    __m256i col[NV];
-    slide_column(c, col);
-    for (int i = 0; i < NV; ++i) box[i] = _mm256_add_epi16(box[i], col[i]);
-  }
-
-  // Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in
-  // the ring, find the winner, and fold the costs into the right view's minima.
-  const auto scan = [&](int x, auto masked_tag) KESTREL_INLINE {
-    constexpr bool kMasked = decltype(masked_tag)::value;
-    if (x > 0) {
-      __m256i add[NV];
-      slide_column(x + 2 * r, add);
-      const std::uint16_t* sub = cs + static_cast<std::size_t>(x - 1) * L;
-      for (int i = 0; i < NV; ++i) box[i] = _mm256_sub_epi16(_mm256_add_epi16(box[i], add[i]), load(sub + 16 * i));
-    }
-    __m256i v[NV];
-    if constexpr (kMasked) {  // lanes below first_lane(x) are out of range
-      const __m256i first = _mm256_set1_epi16(static_cast<short>(std::max(lane_floor, d_top - x)));
-      for (int i = 0; i < NV; ++i) v[i] = _mm256_or_si256(box[i], _mm256_cmpgt_epi16(first, lane_of[i]));
-    } else {
-      for (int i = 0; i < NV; ++i) v[i] = box[i];
-    }
-    std::uint16_t* slot = ring_at(x);
-    for (int i = 0; i < NV; ++i) store(slot + 16 * i, v[i]);
-    {  // The winner: cost and first lane from one fold and one phminposuw (tagged costs).
-      __m256i m = v[0];
-      for (int i = 1; i < NV; ++i) m = _mm256_min_epu16(m, v[i]);
-      const __m128i m8 = _mm_min_epu16(_mm256_castsi256_si128(m), _mm256_extracti128_si256(m, 1));
-      const auto mp = static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m8)));
-      const std::uint32_t tagged = mp & 0xFFFFU;
-      fields[kFieldCost * kFieldStride + x] = static_cast<std::uint16_t>(tagged);
-      fields[kFieldBest * kFieldStride + x] =
-          static_cast<std::uint16_t>(((tagged & ((1U << kBits) - 1U)) << 3) | ((mp >> 16) & 7U));
-    }
-    if (lr_check) {
-      // Right view: lane k holds right pixel x - d_top + k; lane 0 (position 0) is complete
-      // after this x. The window then moves down one lane: in storage order the low vector
-      // of a group takes the high one's first lane of each half, the high vector takes the
-      // low vector's second half and the next group's first.
-      for (int i = 0; i < NV; ++i) win[i] = _mm256_min_epu16(win[i], v[i]);
-      right_min[x] = static_cast<std::uint16_t>(_mm256_extract_epi16(win[0], 0));
-      for (int g = 0; g < NV / 2; ++g) {
-        const __m256i a = win[2 * g], b = win[2 * g + 1];
-        const __m256i next = 2 * g + 2 < NV ? win[2 * g + 2] : ones;
-        win[2 * g] = _mm256_alignr_epi8(b, a, 2);
-        win[2 * g + 1] = _mm256_alignr_epi8(_mm256_permute2x128_si256(a, next, 0x21), b, 2);
-      }
-    }
-  };
-  // Stage 2, pixel q = x - kLag: what the checks and the fit need around the winner, read
-  // back from the ring and the fields. Kept apart from stage 1 so that its dependency chain
-  // (winner -> mask -> second minimum) starts from stored inputs and overlaps the next
-  // pixels' stage 1, and so that its 16-bit loads find the 256-bit ring stores in the cache
-  // (a load from a store still in flight that it does not match cannot be forwarded and
-  // stalls). Masked lanes and the guard lanes and slots read as 0xFFFF, above every cost, so
-  // the reads need no range checks: a minimum ignores them and the fit is not made there.
-  const auto check = [&](int q) KESTREL_INLINE {
-    const std::uint16_t* slot = ring_at(q);
-    std::uint16_t* fq = fields + q;
-    const int best = fq[kFieldBest * kFieldStride];
-    if (uniqueness) {
-      // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
-      const std::uint16_t* nm = near_masks + static_cast<std::size_t>(best) * L;
-      __m256i m2 = _mm256_or_si256(load(slot), load(nm));
-      for (int i = 1; i < NV; ++i) {
-        m2 = _mm256_min_epu16(m2, _mm256_or_si256(load(slot + 16 * i), load(nm + 16 * i)));
-      }
-      const __m128i s8 = _mm_min_epu16(_mm256_castsi256_si128(m2), _mm256_extracti128_si256(m2, 1));
-      fq[kFieldSecond * kFieldStride] = static_cast<std::uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(s8)));
-    }
-    const int at_minus = position[best + 1], at_plus = position[best - 1];
-    fq[kFieldMinus * kFieldStride] = slot[at_minus];
-    fq[kFieldPlus * kFieldStride] = slot[at_plus];
-    if (lr_check) {
-      // The right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
-      std::uint16_t diag = fq[kFieldCost * kFieldStride];
-      if (lr == 1) {  // the default: the positions are the fit's
-        diag = std::min(diag, std::min(ring_at(q + 1)[at_plus], ring_at(q - 1)[at_minus]));
-      } else {
-        for (int j = 1; j <= lr; ++j) {
-          diag = std::min(diag, std::min(ring_at(q + j)[position[best - j]], ring_at(q - j)[position[best + j]]));
-        }
-      }
-      fq[kFieldDiag * kFieldStride] = diag;
-    }
-  };
-  const int x_full = L > num ? w : std::min(w, std::max(0, d_top + 1));
+  FastScan<NV, kSlide> t;
+  fast_scan_begin(t, s, f);
+  const int w = t.w, num = t.num, d_top = t.d_top;
+  const int x_full = FastScan<NV, kSlide>::L > num ? w : std::min(w, std::max(0, d_top + 1));
   for (int x = 0; x < x_full; ++x) {
-    scan(x, std::true_type{});
-    if (x >= kLag) check(x - kLag);
+    fast_scan_pixel<true>(t, x);
+    if (x >= kLag) fast_check_pixel(t, x - kLag);
   }
   for (int x = x_full; x < w; ++x) {
-    scan(x, std::false_type{});
-    if (x >= kLag) check(x - kLag);
+    fast_scan_pixel<false>(t, x);
+    if (x >= kLag) fast_check_pixel(t, x - kLag);
   }
-  // The last pixels: the guard slots of pixels w.. overwrite pixels w - kRingSlots.., which
-  // only the pixels before q_guard still read.
-  const int q_guard = std::max(0, w - kFastMaxLrDiff);
-  for (int q = std::max(0, w - kLag); q < q_guard; ++q) check(q);
-  for (int x = w; x < w + kFastMaxLrDiff; ++x) {
-    for (int i = 0; i < NV; ++i) store(ring_at(x) + 16 * i, ones);
-  }
-  for (int q = std::max(q_guard, w - kLag); q < w; ++q) check(q);
-  if (lr_check) {  // right pixels w - d_top + k, k < L: back to lane order
-    alignas(32) std::uint16_t rest[L];
-    for (int i = 0; i < NV; ++i) _mm256_store_si256(reinterpret_cast<__m256i*>(rest + 16 * i), win[i]);
-    for (int k = 0; k < L; ++k) right_min[w + k] = rest[position[k]];
-  }
+  fast_scan_end(t);
 }
 
-/// Disparities of one row from the fields scan_row_fast left: the checks in match_row's
-/// order (unreachable, texture, uniqueness, left-right, depth range) and the subpixel fit,
-/// eight pixels at a time, with match_row's arithmetic (float division included): the same
-/// bits. The texture sum of a window is added up here from the column sums.
-/// kChecks: which checks are on (kFinish*), so that each combination is its own loop.
+/// finish_row_fast's kChecks: which checks are on, so that each combination is its own loop.
 constexpr int kFinishTexture = 1, kFinishUnique = 2, kFinishLr = 4, kFinishSubpixel = 8;
+
+/// finish_row_fast's inputs, as locals (see FastScan).
+struct FastFinish {
+  int w, lanes, d_top, lane_floor, min_d, uniqueness, block;
+  bool census;
+  const std::uint16_t* fields;
+  const std::uint16_t* right_min;
+  const std::uint32_t* texture_columns;
+  std::uint32_t texture_min;
+  float d_min, d_max;
+  __m256i texture_min8;
+  __m256 d_min8, d_max8;
+};
+
+/// The rejections and the valid pixels, eight lanes of counts each.
+struct FastFinishCounts {
+  __m256i unreach, tex, uniq, lr, depth, valid;
+};
+
+/// Field `which` of pixels p .. p + 7, widened to 32 bits.
+KESTREL_INLINE inline __m256i fast_field8(const std::uint16_t* fields, int which, int p) {
+  return _mm256_cvtepu16_epi32(
+      _mm_loadu_si128(reinterpret_cast<const __m128i*>(fields + which * kFieldStride + p)));
+}
+
+template <int kBits>
+KESTREL_INLINE inline __m256i fast_cost8(const std::uint16_t* fields, int which, int p) {
+  return _mm256_srli_epi32(fast_field8(fields, which, p), kBits);
+}
+
+/// The window sums of texture columns p .. p + 2r for pixels p .. p + 7 (below 2^31: a signed
+/// compare).
+KESTREL_INLINE inline __m256i fast_texture8(const FastFinish& t, int p) {
+  __m256i tex = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.texture_columns + p));
+  for (int c = 1; c < t.block; ++c) {
+    tex = _mm256_add_epi32(
+        tex, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(t.texture_columns + p + c)));
+  }
+  return tex;
+}
+
+/// Subpixel offsets of pixels pix = p .. p + 7: both neighbours in range and a nonzero cost,
+/// as in finish_row.
+template <int kBits>
+KESTREL_INLINE inline __m256 fast_subpixel8(const FastFinish& t, int p, __m256i pix, __m256i best,
+                                            __m256i c0) {
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256i cm = fast_cost8<kBits>(t.fields, kFieldMinus, p),
+                cp = fast_cost8<kBits>(t.fields, kFieldPlus, p);
+  const __m256i first = _mm256_max_epi32(_mm256_set1_epi32(t.lane_floor),
+                                         _mm256_sub_epi32(_mm256_set1_epi32(t.d_top), pix));
+  __m256i fit = _mm256_cmpgt_epi32(c0, zero);
+  fit = _mm256_and_si256(fit, _mm256_cmpgt_epi32(_mm256_set1_epi32(t.lanes - 1), best));
+  fit = _mm256_andnot_si256(_mm256_cmpgt_epi32(first, _mm256_sub_epi32(best, _mm256_set1_epi32(1))),
+                            fit);
+  const __m256i denom = t.census
+                            ? _mm256_sub_epi32(_mm256_add_epi32(cm, cp), _mm256_add_epi32(c0, c0))
+                            : _mm256_sub_epi32(_mm256_max_epi32(cm, cp), c0);
+  fit = _mm256_and_si256(fit, _mm256_cmpgt_epi32(denom, zero));
+  const __m256i numer = _mm256_and_si256(fit, _mm256_sub_epi32(cm, cp));
+  const __m256i den = _mm256_blendv_epi8(_mm256_set1_epi32(1), _mm256_add_epi32(denom, denom), fit);
+  return _mm256_div_ps(_mm256_cvtepi32_ps(numer), _mm256_cvtepi32_ps(den));
+}
+
+/// Pixels p .. p + 7: each counts once, under its first failing check; the disparity where
+/// none fails.
 template <int kBits, int kChecks>
-void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats& stats) {
-  const int w = s.width, lanes = s.lanes, d_top = s.d_top;
-  const int lane_floor = lanes - s.num, min_d = d_top - lanes + 1;
+KESTREL_INLINE inline void fast_finish8(const FastFinish& t, int p, float* out,
+                                        FastFinishCounts& n) {
   constexpr bool lr_check = (kChecks & kFinishLr) != 0, texture = (kChecks & kFinishTexture) != 0;
   constexpr bool subpixel = (kChecks & kFinishSubpixel) != 0;
-  const int uniqueness = (kChecks & kFinishUnique) != 0 ? s.uniqueness : 0;
-  const std::uint16_t* const fields = f.fields;
-  const std::uint16_t* const right_min = s.right_min;
-  const std::uint32_t* const texture_columns = s.texture_columns;
-  const int block = 2 * s.radius + 1;
-  const __m256i texture_min = _mm256_set1_epi32(static_cast<int>(std::min<std::uint32_t>(s.texture_min, 0x7FFFFFFF)));
-  const auto field = [&](int which, int p) {
-    return _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(fields + which * kFieldStride + p)));
-  };
-  const auto cost = [&](int which, int p) { return _mm256_srli_epi32(field(which, p), kBits); };
-  // Per-pixel counts, summed at the end.
-  __m256i n_unreach = _mm256_setzero_si256(), n_tex = n_unreach, n_uniq = n_unreach,
-          n_lr = n_unreach, n_depth = n_unreach, n_valid = n_unreach;
   const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   const __m256i zero = _mm256_setzero_si256(), all = _mm256_set1_epi32(-1);
   const __m256 inf = _mm256_set1_ps(kNoDisparity);
-  const __m256 d_min = _mm256_set1_ps(f.d_min), d_max = _mm256_set1_ps(f.d_max);
-  int p = 0;
-  for (; p + 8 <= w; p += 8) {
-    const __m256i pix = _mm256_add_epi32(_mm256_set1_epi32(p), iota);
-    const __m256i best = field(kFieldBest, p);
-    const __m256i c0 = cost(kFieldCost, p);
-    // Rejections in order: each pixel counts once, under its first failing check.
-    const __m256i unreach = _mm256_cmpgt_epi32(_mm256_set1_epi32(min_d), pix);
-    __m256i open = _mm256_xor_si256(unreach, all);
-    __m256i low_tex = zero, not_unique = zero, lr_fail = zero;
-    if constexpr (texture) {
-      // The window's sum of texture columns p .. p + 2r (below 2^31: a signed compare).
-      __m256i tex = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(texture_columns + p));
-      for (int c = 1; c < block; ++c) {
-        tex = _mm256_add_epi32(tex, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(texture_columns + p + c)));
-      }
-      low_tex = _mm256_and_si256(open, _mm256_cmpgt_epi32(texture_min, tex));
-      open = _mm256_andnot_si256(low_tex, open);
-    }
-    if constexpr ((kChecks & kFinishUnique) != 0) {
-      // second * 100 <= c0 * (100 + u), where there is a second.
-      const __m256i second = field(kFieldSecond, p);
-      const __m256i some = _mm256_xor_si256(_mm256_cmpeq_epi32(second, _mm256_set1_epi32(0xFFFF)), all);
-      const __m256i lhs = _mm256_mullo_epi32(_mm256_srli_epi32(second, kBits), _mm256_set1_epi32(100));
-      const __m256i rhs = _mm256_mullo_epi32(c0, _mm256_set1_epi32(100 + uniqueness));
-      const __m256i fails = _mm256_andnot_si256(_mm256_cmpgt_epi32(lhs, rhs), some);
-      not_unique = _mm256_and_si256(open, fails);
-      open = _mm256_andnot_si256(not_unique, open);
-    }
-    if constexpr (lr_check) {
-      // right_min[p + best] (uint16, read as the low half of a 32-bit gather).
-      const __m256i right = _mm256_i32gather_epi32(reinterpret_cast<const int*>(right_min),
-                                                   _mm256_add_epi32(pix, best), 2);
-      const __m256i right_best = _mm256_srli_epi32(_mm256_and_si256(right, _mm256_set1_epi32(0xFFFF)), kBits);
-      lr_fail = _mm256_and_si256(open, _mm256_cmpgt_epi32(cost(kFieldDiag, p), right_best));
-      open = _mm256_andnot_si256(lr_fail, open);
-    }
-    // Subpixel: both neighbours in range and a nonzero cost, as in match_row.
-    __m256 delta = _mm256_setzero_ps();
-    if constexpr (subpixel) {
-      const __m256i cm = cost(kFieldMinus, p), cp = cost(kFieldPlus, p);
-      const __m256i first = _mm256_max_epi32(_mm256_set1_epi32(lane_floor),
-                                             _mm256_sub_epi32(_mm256_set1_epi32(d_top), pix));
-      __m256i fit = _mm256_cmpgt_epi32(c0, zero);
-      fit = _mm256_and_si256(fit, _mm256_cmpgt_epi32(_mm256_set1_epi32(lanes - 1), best));
-      fit = _mm256_andnot_si256(_mm256_cmpgt_epi32(first, _mm256_sub_epi32(best, _mm256_set1_epi32(1))), fit);
-      const __m256i denom = f.census ? _mm256_sub_epi32(_mm256_add_epi32(cm, cp), _mm256_add_epi32(c0, c0))
-                                     : _mm256_sub_epi32(_mm256_max_epi32(cm, cp), c0);
-      fit = _mm256_and_si256(fit, _mm256_cmpgt_epi32(denom, zero));
-      const __m256i numer = _mm256_and_si256(fit, _mm256_sub_epi32(cm, cp));
-      const __m256i den = _mm256_blendv_epi8(_mm256_set1_epi32(1), _mm256_add_epi32(denom, denom), fit);
-      delta = _mm256_div_ps(_mm256_cvtepi32_ps(numer), _mm256_cvtepi32_ps(den));
-    }
-    const __m256 ds = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_set1_epi32(d_top), best)), delta);
-    const __m256i out_of_range = _mm256_castps_si256(
-        _mm256_or_ps(_mm256_cmp_ps(ds, d_min, _CMP_LT_OQ), _mm256_cmp_ps(ds, d_max, _CMP_GT_OQ)));
-    const __m256i depth_fail = _mm256_and_si256(open, out_of_range);
-    open = _mm256_andnot_si256(depth_fail, open);
-    _mm256_storeu_ps(out + p, _mm256_blendv_ps(inf, ds, _mm256_castsi256_ps(open)));
-    n_unreach = _mm256_sub_epi32(n_unreach, unreach);
-    n_tex = _mm256_sub_epi32(n_tex, low_tex);
-    n_uniq = _mm256_sub_epi32(n_uniq, not_unique);
-    n_lr = _mm256_sub_epi32(n_lr, lr_fail);
-    n_depth = _mm256_sub_epi32(n_depth, depth_fail);
-    n_valid = _mm256_sub_epi32(n_valid, open);
+  const __m256i pix = _mm256_add_epi32(_mm256_set1_epi32(p), iota);
+  const __m256i best = fast_field8(t.fields, kFieldBest, p);
+  const __m256i c0 = fast_cost8<kBits>(t.fields, kFieldCost, p);
+  const __m256i unreach = _mm256_cmpgt_epi32(_mm256_set1_epi32(t.min_d), pix);
+  __m256i open = _mm256_xor_si256(unreach, all);
+  __m256i low_tex = zero, not_unique = zero, lr_fail = zero;
+  if constexpr (texture) {
+    low_tex = _mm256_and_si256(open, _mm256_cmpgt_epi32(t.texture_min8, fast_texture8(t, p)));
+    open = _mm256_andnot_si256(low_tex, open);
   }
+  if constexpr ((kChecks & kFinishUnique) != 0) {
+    // second * 100 <= c0 * (100 + u), where there is a second.
+    const __m256i second = fast_field8(t.fields, kFieldSecond, p);
+    const __m256i some =
+        _mm256_xor_si256(_mm256_cmpeq_epi32(second, _mm256_set1_epi32(0xFFFF)), all);
+    const __m256i lhs =
+        _mm256_mullo_epi32(_mm256_srli_epi32(second, kBits), _mm256_set1_epi32(100));
+    const __m256i rhs = _mm256_mullo_epi32(c0, _mm256_set1_epi32(100 + t.uniqueness));
+    const __m256i fails = _mm256_andnot_si256(_mm256_cmpgt_epi32(lhs, rhs), some);
+    not_unique = _mm256_and_si256(open, fails);
+    open = _mm256_andnot_si256(not_unique, open);
+  }
+  if constexpr (lr_check) {
+    // right_min[p + best] (uint16, read as the low half of a 32-bit gather).
+    const __m256i right = _mm256_i32gather_epi32(reinterpret_cast<const int*>(t.right_min),
+                                                 _mm256_add_epi32(pix, best), 2);
+    const __m256i right_best =
+        _mm256_srli_epi32(_mm256_and_si256(right, _mm256_set1_epi32(0xFFFF)), kBits);
+    lr_fail = _mm256_and_si256(
+        open, _mm256_cmpgt_epi32(fast_cost8<kBits>(t.fields, kFieldDiag, p), right_best));
+    open = _mm256_andnot_si256(lr_fail, open);
+  }
+  __m256 delta = _mm256_setzero_ps();
+  if constexpr (subpixel) delta = fast_subpixel8<kBits>(t, p, pix, best, c0);
+  const __m256 ds =
+      _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_sub_epi32(_mm256_set1_epi32(t.d_top), best)), delta);
+  const __m256i out_of_range = _mm256_castps_si256(_mm256_or_ps(
+      _mm256_cmp_ps(ds, t.d_min8, _CMP_LT_OQ), _mm256_cmp_ps(ds, t.d_max8, _CMP_GT_OQ)));
+  const __m256i depth_fail = _mm256_and_si256(open, out_of_range);
+  open = _mm256_andnot_si256(depth_fail, open);
+  _mm256_storeu_ps(out + p, _mm256_blendv_ps(inf, ds, _mm256_castsi256_ps(open)));
+  n.unreach = _mm256_sub_epi32(n.unreach, unreach);
+  n.tex = _mm256_sub_epi32(n.tex, low_tex);
+  n.uniq = _mm256_sub_epi32(n.uniq, not_unique);
+  n.lr = _mm256_sub_epi32(n.lr, lr_fail);
+  n.depth = _mm256_sub_epi32(n.depth, depth_fail);
+  n.valid = _mm256_sub_epi32(n.valid, open);
+}
+
+inline void add_fast_finish_counts(const FastFinishCounts& n, MatchStats& stats) {
   const auto sum = [](__m256i v) {
     alignas(32) std::int32_t a[8];
     _mm256_store_si256(reinterpret_cast<__m256i*>(a), v);
     return static_cast<std::size_t>(a[0] + a[1] + a[2] + a[3] + a[4] + a[5] + a[6] + a[7]);
   };
-  stats.unreachable += sum(n_unreach);
-  stats.rejected_texture += sum(n_tex);
-  stats.rejected_uniqueness += sum(n_uniq);
-  stats.rejected_lr += sum(n_lr);
-  stats.rejected_depth += sum(n_depth);
-  stats.valid += sum(n_valid);
-  for (; p < w; ++p) {  // the last width % 8 pixels, one at a time
-    out[p] = kNoDisparity;
-    const std::uint16_t* fp = fields + p;
-    if (p < min_d) {
-      ++stats.unreachable;
-      continue;
-    }
-    if constexpr (texture) {
-      std::uint32_t tex = 0;
-      for (int c = 0; c < block; ++c) tex += texture_columns[p + c];
-      if (tex < s.texture_min) {
-        ++stats.rejected_texture;
-        continue;
-      }
-    }
-    const int best = fp[kFieldBest * kFieldStride], c0 = fp[kFieldCost * kFieldStride] >> kBits;
-    const int second = fp[kFieldSecond * kFieldStride];
-    if (uniqueness > 0 && second != 0xFFFF && (second >> kBits) * 100 <= c0 * (100 + uniqueness)) {
-      ++stats.rejected_uniqueness;
-      continue;
-    }
-    if (lr_check && (fp[kFieldDiag * kFieldStride] >> kBits) > (right_min[p + best] >> kBits)) {
-      ++stats.rejected_lr;
-      continue;
-    }
-    float delta = 0.0F;
-    const int first = std::max(lane_floor, d_top - p);
-    if (subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
-      const int cm = fp[kFieldMinus * kFieldStride] >> kBits, cp = fp[kFieldPlus * kFieldStride] >> kBits;
-      const int denom = f.census ? cm + cp - 2 * c0 : std::max(cm, cp) - c0;
-      if (denom > 0) delta = static_cast<float>(cm - cp) / static_cast<float>(2 * denom);
-    }
-    const float ds = static_cast<float>(d_top - best) + delta;
-    if (ds < f.d_min || ds > f.d_max) {
-      ++stats.rejected_depth;
-      continue;
-    }
-    out[p] = ds;
-    ++stats.valid;
+  stats.unreachable += sum(n.unreach);
+  stats.rejected_texture += sum(n.tex);
+  stats.rejected_uniqueness += sum(n.uniq);
+  stats.rejected_lr += sum(n.lr);
+  stats.rejected_depth += sum(n.depth);
+  stats.valid += sum(n.valid);
+}
+
+/// Pixel p alone (the last width % 8 pixels), with the same checks and arithmetic.
+template <int kBits, int kChecks>
+KESTREL_INLINE inline void fast_finish1(const FastFinish& t, int p, float* out, MatchStats& stats) {
+  constexpr bool lr_check = (kChecks & kFinishLr) != 0, texture = (kChecks & kFinishTexture) != 0;
+  constexpr bool subpixel = (kChecks & kFinishSubpixel) != 0;
+  out[p] = kNoDisparity;
+  const std::uint16_t* fp = t.fields + p;
+  if (p < t.min_d) {
+    ++stats.unreachable;
+    return;
   }
+  if constexpr (texture) {
+    std::uint32_t tex = 0;
+    for (int c = 0; c < t.block; ++c) tex += t.texture_columns[p + c];
+    if (tex < t.texture_min) {
+      ++stats.rejected_texture;
+      return;
+    }
+  }
+  const int best = fp[kFieldBest * kFieldStride], c0 = fp[kFieldCost * kFieldStride] >> kBits;
+  const int second = fp[kFieldSecond * kFieldStride];
+  if (t.uniqueness > 0 && second != 0xFFFF &&
+      (second >> kBits) * 100 <= c0 * (100 + t.uniqueness)) {
+    ++stats.rejected_uniqueness;
+    return;
+  }
+  if (lr_check && (fp[kFieldDiag * kFieldStride] >> kBits) > (t.right_min[p + best] >> kBits)) {
+    ++stats.rejected_lr;
+    return;
+  }
+  float delta = 0.0F;
+  const int lane_floor = t.lane_floor;
+  const int first = std::max(lane_floor, t.d_top - p);
+  if (subpixel && c0 > 0 && best + 1 < t.lanes && best - 1 >= first) {
+    const int cm = fp[kFieldMinus * kFieldStride] >> kBits,
+              cp = fp[kFieldPlus * kFieldStride] >> kBits;
+    const int denom = t.census ? cm + cp - 2 * c0 : std::max(cm, cp) - c0;
+    if (denom > 0) delta = static_cast<float>(cm - cp) / static_cast<float>(2 * denom);
+  }
+  const float ds = static_cast<float>(t.d_top - best) + delta;
+  if (ds < t.d_min || ds > t.d_max) {
+    ++stats.rejected_depth;
+    return;
+  }
+  out[p] = ds;
+  ++stats.valid;
+}
+
+/// Disparities of one row from the fields scan_row_fast left: the checks in finish_row's
+/// order (unreachable, texture, uniqueness, left-right, depth range) and the subpixel fit,
+/// eight pixels at a time, with finish_row's arithmetic (float division included): the same
+/// bits. The texture sum of a window is added up here from the column sums.
+template <int kBits, int kChecks>
+void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats& stats) {
+  const FastFinish t{.w = s.width,
+                     .lanes = s.lanes,
+                     .d_top = s.d_top,
+                     .lane_floor = s.lanes - s.num,
+                     .min_d = s.d_top - s.lanes + 1,
+                     .uniqueness = (kChecks & kFinishUnique) != 0 ? s.uniqueness : 0,
+                     .block = 2 * s.radius + 1,
+                     .census = f.census,
+                     .fields = f.fields,
+                     .right_min = s.right_min,
+                     .texture_columns = s.texture_columns,
+                     .texture_min = s.texture_min,
+                     .d_min = f.d_min,
+                     .d_max = f.d_max,
+                     .texture_min8 = _mm256_set1_epi32(
+                         static_cast<int>(std::min<std::uint32_t>(s.texture_min, 0x7FFFFFFF))),
+                     .d_min8 = _mm256_set1_ps(f.d_min),
+                     .d_max8 = _mm256_set1_ps(f.d_max)};
+  const __m256i zero = _mm256_setzero_si256();
+  FastFinishCounts n{zero, zero, zero, zero, zero, zero};
+  int p = 0;
+  for (; p + 8 <= t.w; p += 8) fast_finish8<kBits, kChecks>(t, p, out, n);
+  add_fast_finish_counts(n, stats);
+  for (; p < t.w; ++p) fast_finish1<kBits, kChecks>(t, p, out, stats);
 }
 
 template <int kBits, std::size_t... kChecks>
@@ -1164,13 +1360,16 @@ constexpr auto finish_row_table(std::index_sequence<kChecks...>) {
 }
 #endif
 
+void scan_row(const RowScan& scan, bool portable);
+void finish_row(const RowScan& s, int lr, bool subpixel, bool census, float d_min, float d_max,
+                float* out, MatchStats& stats);
+
 }  // namespace
 
 void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
   const int w = width_, lanes = lanes_;
   const int num = options_.max_disparity - options_.min_disparity;
   const int d_top = options_.min_disparity + lanes - 1;  // disparity of lane 0
-  const auto L = static_cast<std::size_t>(lanes);
   RowScan scan{align64(column_sums_.data()), texture_columns_.data(), w, radius_, lanes, num, d_top,
                options_.uniqueness_ratio, texture_min_,
                volume_.data(), right_min_.data(), row_disp_.data(), row_state_.data()};
@@ -1202,7 +1401,18 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     else run.template operator()<4>();
     return;
   }
-  switch (portable_ ? 0 : lanes / 16) {
+#endif
+  scan_row(scan, portable_);
+  finish_row(scan, options_.lr_max_diff, options_.subpixel, options_.cost == MatchingCost::kCensus,
+             d_min_valid_, d_max_valid_, out, stats);
+}
+
+namespace {
+
+/// The row scan: AVX2 for whole registers of lanes, portable for the others or when asked.
+void scan_row(const RowScan& scan, [[maybe_unused]] bool portable) {
+#if defined(__AVX2__)
+  switch (portable ? 0 : scan.lanes / 16) {
     case 2: scan_row_avx2<2>(scan); break;
     case 4: scan_row_avx2<4>(scan); break;
     case 6: scan_row_avx2<6>(scan); break;
@@ -1216,32 +1426,38 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
 #else
   scan_row_generic(scan);
 #endif
+}
 
-  const bool census = options_.cost == MatchingCost::kCensus;
-  const int lr = options_.lr_max_diff;
+/// The row's disparities after scan_row: the left-right check, the subpixel fit and the depth
+/// range for the candidates, the counts for all.
+void finish_row(const RowScan& s, int lr, bool subpixel, bool census, float d_min, float d_max,
+                float* out, MatchStats& stats) {
+  const int w = s.width, lanes = s.lanes, num = s.num, d_top = s.d_top;
+  const auto L = static_cast<std::size_t>(lanes);
   for (int x = 0; x < w; ++x) {
     out[x] = kNoDisparity;
-    switch (row_state_[static_cast<std::size_t>(x)]) {
+    switch (s.state[static_cast<std::size_t>(x)]) {
       case kUnreachable: ++stats.unreachable; continue;
       case kLowTexture: ++stats.rejected_texture; continue;
       case kNotUnique: ++stats.rejected_uniqueness; continue;
       default: break;
     }
-    const int best = row_disp_[static_cast<std::size_t>(x)];
+    const int best = s.winner_lane[static_cast<std::size_t>(x)];
     const int d = d_top - best;
-    const std::uint16_t* vol = volume_.data() + static_cast<std::size_t>(x) * L;
+    const std::uint16_t* vol = s.volume + static_cast<std::size_t>(x) * L;
     const int c0 = vol[best];
     if (lr >= 0) {
       // Left-right check without a second pass: the right pixel x - d has its best cost
       // right_min; the check passes iff a candidate along its diagonal within lr px of d
       // (pixel x + j, disparity d + j) reaches that cost (ties count as consistent).
-      const int right_best = right_min_[static_cast<std::size_t>(x - d + d_top)];
+      const int right_best = s.right_min[static_cast<std::size_t>(x - d + d_top)];
       int diag = c0;
       for (int j = -lr; j <= lr && diag > right_best; ++j) {
         const int xj = x + j, kj = best - j;
         if (j == 0 || xj < 0 || xj >= w || kj < 0 || kj >= lanes) continue;
         if (kj < std::max(lanes - num, d_top - xj)) continue;  // out of range there
-        diag = std::min(diag, int{volume_[static_cast<std::size_t>(xj) * L + static_cast<std::size_t>(kj)]});
+        diag = std::min(
+            diag, int{s.volume[static_cast<std::size_t>(xj) * L + static_cast<std::size_t>(kj)]});
       }
       if (diag > right_best) {
         ++stats.rejected_lr;
@@ -1251,7 +1467,7 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     float delta = 0.0F;
     const int first = std::max(lanes - num, d_top - x);
     // A zero cost is an exact match: no fit (an asymmetric cost curve would bias it).
-    if (options_.subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
+    if (subpixel && c0 > 0 && best + 1 < lanes && best - 1 >= first) {
       const int cm = vol[best + 1], cp = vol[best - 1];  // costs at d - 1 and d + 1
       if (census) {
         const int denom = cm + cp - 2 * c0;
@@ -1263,7 +1479,7 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
       }
     }
     const float ds = static_cast<float>(d) + delta;
-    if (ds < d_min_valid_ || ds > d_max_valid_) {
+    if (ds < d_min || ds > d_max) {
       ++stats.rejected_depth;
       continue;
     }
@@ -1271,6 +1487,8 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
     ++stats.valid;
   }
 }
+
+}  // namespace
 
 MatchStats BlockMatcher::match(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity) {
   if (left.empty() || right.empty()) {
