@@ -523,11 +523,10 @@ EurocExperimentResult run_v1_01(const fs::path& seq, const fusion::FusionOptions
   // The file's columns are p_x p_y p_z q_w q_x q_y q_z as documented, p the position of cam0
   // in the world, but the quaternion read as a Hamilton (w, x, y, z) is R_cam_world, the
   // INVERSE of the camera's orientation (equivalently: a JPL quaternion of R_world_cam).
-  // Evidence (docs/fusion.md, "V1_01 ground truth"): with q^-1 and T_BS the relative
-  // rotations agree with the integrated gyro (mean cosine 0.9995 over 337 intervals, |angle|
-  // ratio 0.999) and the specific force predicted from the positions' second differences
-  // agrees with the accelerometer (median 0.56 m/s^2); with q as R_world_cam 0.32 and
-  // 9.98 m/s^2. Body ground truth T_w_b = T_w_c T_BS^-1; velocity by central differences.
+  // With q^-1 and T_BS the relative rotations agree with the integrated gyro and the specific
+  // force from the positions' second differences with the accelerometer; read as R_world_cam
+  // neither does (docs/fusion.md, "V1_01 ground truth", has the figures). Body ground truth
+  // T_w_b = T_w_c T_BS^-1; velocity by central differences.
   std::vector<GroundTruthSample> gt(cam_gt.size());
   for (std::size_t i = 0; i < cam_gt.size(); ++i) {
     gt[i].t_ns = cam_gt[i].t_ns;
