@@ -11,6 +11,7 @@
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/sim/scenes.hpp"
+#include "option_checks.hpp"
 #include "progress.hpp"
 
 namespace kestrel::cli {
@@ -115,18 +116,22 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--scenario", args->scenario, "hover, square or corridor (see --list)")
       ->capture_default_str();
   cmd->add_option("--duration", args->duration_s,
-                  "Simulated seconds (default: the scenario's: hover 60, square 28, corridor 32)");
+                  "Simulated seconds (default: the scenario's: hover 60, square 28, corridor 32)")
+      ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
   cmd->add_option("--seed", args->seed, "Seed of every random part (IMU, noise, pattern)")
       ->capture_default_str();
   cmd->add_option("--out", args->out, "Output folder: log.csv, details.csv, top_view.png, errors.png");
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->add_flag("--list", args->list, "List the scenarios, then exit");
   cmd->add_option("--vo-off-at", args->vo_off_at_s,
-                  "Switch the odometry off at this time (s) to test the IMU hold");
+                  "Switch the odometry off at this time (s) to test the IMU hold")
+      ->check(number_in(0.0, 3600.0, "a time in [0, 3600] s"));
   cmd->add_option("--vo-off-for", args->vo_off_for_s, "... for this long (s)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
   cmd->add_option("--latency", args->latency_s,
-                  "Camera-to-filter latency in seconds (default 0.040)");
+                  "Camera-to-filter latency in seconds (default 0.040)")
+      ->check(number_in(0.0, 1.0, "a latency in [0, 1] s"));
   cmd->add_option("--vo-reference", args->vo_reference,
                   "What each odometry measurement to the EKF is relative to: keyframe (default) "
                   "or previous_frame (docs/flight.md compares them)");

@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/sensor/pattern.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -56,7 +57,9 @@ void add_pattern_command(CLI::App& app) {
       "pattern", "Generate the projector pattern: random lines of random colour, position and "
                  "orientation (thesis 2.3); the same seed gives the same image.");
   auto& o = args->options;
-  cmd->add_option("--lines", o.lines, "number of lines")->capture_default_str();
+  cmd->add_option("--lines", o.lines, "number of lines")
+      ->capture_default_str()
+      ->check(number_in(1.0, 100000.0, "a whole number of lines, 1 to 100000"));
   cmd->add_option("--width", o.width, "image width [px] (projector resolution)")->capture_default_str();
   cmd->add_option("--height", o.height, "image height [px]")->capture_default_str();
   cmd->add_flag("--segments{false}", o.full_lines,

@@ -20,6 +20,7 @@
 #include "kestrel/sim/scenes.hpp"
 #include "kestrel/sim/sequence_writer.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
+#include "option_checks.hpp"
 #include "progress.hpp"
 
 namespace kestrel::cli {
@@ -191,12 +192,16 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--texture-seed", args->texture_seed,
                   "Seed of the scene's random textures (0: the canonical scene)")
       ->capture_default_str();
-  auto* frames =
-      cmd->add_option("--frames", args->frames, "Number of frames")->capture_default_str();
+  auto* frames = cmd->add_option("--frames", args->frames, "Number of frames")
+                     ->capture_default_str()
+                     ->check(number_in(1.0, 100000.0, "a whole number of frames, 1 to 100000"));
   auto* duration =
-      cmd->add_option("--duration", args->duration_s, "Length in seconds (instead of --frames)");
+      cmd->add_option("--duration", args->duration_s, "Length in seconds (instead of --frames)")
+          ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
   frames->excludes(duration);
-  cmd->add_option("--rate", args->rate_hz, "Frame rate in Hz")->capture_default_str();
+  cmd->add_option("--rate", args->rate_hz, "Frame rate in Hz")
+      ->capture_default_str()
+      ->check(number_in(0.0, 1000.0, "a rate in (0, 1000] Hz", true));
   cmd->add_option("--camera", args->camera,
                   "Camera preset (fr1, fr2, fr3, ros) or camera YAML file")
       ->capture_default_str();
