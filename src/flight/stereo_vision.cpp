@@ -38,14 +38,7 @@ sim::ProjectorOptions rig_projector_options() {
 }
 
 RectifiedStereo StereoVisionOptions::rig() const {
-  RectifiedStereo r;
-  r.f = f_px;
-  r.cu = 0.5 * (width - 1);
-  r.cv = 0.5 * (height - 1);
-  r.baseline_m = baseline_m;
-  r.width = width;
-  r.height = height;
-  return r;
+  return RectifiedStereo::centred(width, height, f_px, baseline_m);
 }
 
 void StereoVisionOptions::validate() const {

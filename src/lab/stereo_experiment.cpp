@@ -69,13 +69,8 @@ StereoExperimentResult run_stereo_experiment(const StereoExperimentOptions& opti
       options.pattern.height != options.projector.height) {
     throw std::invalid_argument("stereo experiment: the pattern size must be the projector's");
   }
-  RectifiedStereo rig;
-  rig.f = options.f_px;
-  rig.cu = 0.5 * static_cast<double>(options.width - 1);
-  rig.cv = 0.5 * static_cast<double>(options.height - 1);
-  rig.baseline_m = options.baseline_m;
-  rig.width = options.width;
-  rig.height = options.height;
+  const RectifiedStereo rig =
+      RectifiedStereo::centred(options.width, options.height, options.f_px, options.baseline_m);
   rig.validate();
 
   const sim::Scene scene = sim::make_scene("wall", options.seed);

@@ -108,13 +108,7 @@ struct RunState {
 StereoOdometryExperimentResult run_stereo_odometry_experiment(
     const StereoOdometryExperimentOptions& o) {
   o.validate();
-  RectifiedStereo rig;
-  rig.f = o.f_px;
-  rig.cu = 0.5 * static_cast<double>(o.width - 1);
-  rig.cv = 0.5 * static_cast<double>(o.height - 1);
-  rig.baseline_m = o.baseline_m;
-  rig.width = o.width;
-  rig.height = o.height;
+  const RectifiedStereo rig = RectifiedStereo::centred(o.width, o.height, o.f_px, o.baseline_m);
   rig.validate();
 
   const sim::Scene scene = sim::make_scene(o.scene, o.seed);

@@ -391,5 +391,16 @@ TEST(RectifiedStereo, ValidateRejectsDegenerateRigs) {
   EXPECT_THROW((void)RectifiedStereo{}.left(), std::invalid_argument);
 }
 
+TEST(RectifiedStereo, CentredPutsThePrincipalPointAtTheImageCentre) {
+  const RectifiedStereo rig = RectifiedStereo::centred(640, 481, 420.0, 0.12);
+  EXPECT_EQ(rig.width, 640);
+  EXPECT_EQ(rig.height, 481);
+  EXPECT_EQ(rig.f, 420.0);
+  EXPECT_EQ(rig.baseline_m, 0.12);
+  EXPECT_EQ(rig.cu, 319.5);  // pixel centres 0 .. 639
+  EXPECT_EQ(rig.cv, 240.0);
+  EXPECT_NO_THROW(rig.validate());
+}
+
 }  // namespace
 }  // namespace kestrel

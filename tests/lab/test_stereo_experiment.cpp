@@ -9,13 +9,19 @@
 namespace kestrel::lab {
 namespace {
 
-TEST(StereoExperiment, ActiveFillsFarMoreThanPassive) {
+// The experiment at test size: 200x150 with the full size's field of view, block 7.
+StereoExperimentOptions small_experiment() {
   StereoExperimentOptions o;
   o.width = 200;
   o.height = 150;
   o.f_px = 130.0;
   o.matcher.max_disparity = 32;
   o.matcher.block_size = 7;
+  return o;
+}
+
+TEST(StereoExperiment, ActiveFillsFarMoreThanPassive) {
+  const StereoExperimentOptions o = small_experiment();
   const StereoExperimentResult r = run_stereo_experiment(o);
   const double passive = r.passive.score.fill_rate();
   const double active = r.active.score.fill_rate();
@@ -39,12 +45,7 @@ TEST(StereoExperiment, Fig27TargetAtFullSize) {
 // cameras' view (all but its shadow); a 30 deg one a central part, whose pixels the
 // pattern fills more densely than the whole view.
 TEST(StereoExperiment, LitMaskIsTheCovisiblePartInsideTheProjectorField) {
-  StereoExperimentOptions o;
-  o.width = 200;
-  o.height = 150;
-  o.f_px = 130.0;
-  o.matcher.max_disparity = 32;
-  o.matcher.block_size = 7;
+  StereoExperimentOptions o = small_experiment();
   const StereoExperimentResult wide = run_stereo_experiment(o);
   o.projector.horizontal_fov_deg = 30.0;
   const StereoExperimentResult narrow = run_stereo_experiment(o);

@@ -15,16 +15,7 @@
 namespace kestrel::sensor {
 namespace {
 
-RectifiedStereo small_rig() {
-  RectifiedStereo rig;
-  rig.f = 200.0;
-  rig.cu = 79.5;
-  rig.cv = 59.5;
-  rig.baseline_m = 0.1;
-  rig.width = 160;
-  rig.height = 120;
-  return rig;
-}
+RectifiedStereo small_rig() { return RectifiedStereo::centred(160, 120, 200.0, 0.1); }
 
 // A textured left view and the right view of a fronto-parallel plane at disparity `d`: the
 // right image is the left one shifted d pixels to the left.

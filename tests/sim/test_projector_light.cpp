@@ -34,16 +34,7 @@ ProjectorOptions small_projector() {
   return o;
 }
 
-RectifiedStereo small_rig() {
-  RectifiedStereo rig;
-  rig.f = 100.0;
-  rig.cu = 79.5;
-  rig.cv = 59.5;
-  rig.baseline_m = 0.1;
-  rig.width = 160;
-  rig.height = 120;
-  return rig;
-}
+RectifiedStereo small_rig() { return RectifiedStereo::centred(160, 120, 100.0, 0.1); }
 
 RenderOptions exact_render() {
   RenderOptions r;

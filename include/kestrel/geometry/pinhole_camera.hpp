@@ -73,6 +73,18 @@ struct RectifiedStereo {
   int width = 0;
   int height = 0;
 
+  /// A rig of `width` x `height` pixels with its principal point at the image centre
+  /// ((width - 1) / 2, (height - 1) / 2), as rendered pairs have it.
+  [[nodiscard]] static RectifiedStereo centred(int width, int height, double f_px,
+                                               double baseline_m) {
+    return {f_px,
+            0.5 * static_cast<double>(width - 1),
+            0.5 * static_cast<double>(height - 1),
+            baseline_m,
+            width,
+            height};
+  }
+
   [[nodiscard]] double depth_from_disparity(double d_px) const { return baseline_m * f / d_px; }
   [[nodiscard]] double disparity_from_depth(double z_m) const { return baseline_m * f / z_m; }
   /// The (distortion-free) left camera.
