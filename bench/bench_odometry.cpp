@@ -1,11 +1,15 @@
 // Microbenchmarks of the image kernels and of the direct tracker on a 640x480 rendered pair.
 #include <benchmark/benchmark.h>
 
+#include <hwy/targets.h>
+
 #include <array>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <random>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "kestrel/image/gradient.hpp"
@@ -24,6 +28,23 @@ namespace {
 
 using namespace kestrel;
 namespace kernels = kestrel::odometry::kernels;
+
+// KESTREL_BENCH_SIMD=<target> (e.g. AVX2) runs the alignment kernels on that SIMD target instead
+// of the CPU's best, to compare targets in one binary; the context header names the target.
+const bool kSimdTargetChosen = [] {
+  if (const char* wanted = std::getenv("KESTREL_BENCH_SIMD")) {
+    bool found = false;
+    for (const std::int64_t t : kernels::simd_targets()) {
+      if (std::string(hwy::TargetName(t)) == wanted) {
+        hwy::SetSupportedTargetsForTest(t);
+        found = true;
+      }
+    }
+    if (!found) throw std::runtime_error(std::string("KESTREL_BENCH_SIMD: no target ") + wanted);
+  }
+  benchmark::AddCustomContext("simd_target", kernels::simd_target());
+  return true;
+}();
 
 const PinholeCamera& fr1() {
   static const PinholeCamera cam({517.3, 516.5, 318.6, 255.3, 640, 480},

@@ -7,6 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   ccache                   # compile cache (CI builds a fresh clone on the same machine)
   libeigen3-dev            # geometry, estimators
+  libhwy-dev               # Google Highway: portable SIMD kernels with run-time dispatch
   libopencv-dev            # images, calibration, rectification, peer odometry (contrib rgbd)
   libyaml-cpp-dev          # option and calibration files
   libcli11-dev             # the kestrel command line

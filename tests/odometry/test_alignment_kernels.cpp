@@ -2,6 +2,7 @@
 // the scalar reference and a linear image (exact under bilinear sampling), the Tukey sums
 // against robust_weights.hpp point by point, the normal equations against an Eigen product.
 #include <gtest/gtest.h>
+#include <hwy/targets.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <limits>
 #include <opencv2/core.hpp>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "kestrel/odometry/alignment_kernels.hpp"
@@ -18,6 +20,28 @@ namespace kestrel::odometry::kernels {
 namespace {
 
 constexpr float kC = 4.6851F;
+
+// Runs `body` on every SIMD target the kernels have for this CPU, best first, naming the target
+// in any failure: each target's kernels against the one scalar reference.
+template <class Body>
+void on_every_simd_target(Body&& body) {
+  for (const std::int64_t target : simd_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target));
+    ASSERT_STREQ(simd_target(), hwy::TargetName(target));  // the dispatch took it
+    body();
+  }
+  hwy::SetSupportedTargetsForTest(0);
+}
+
+TEST(AlignmentKernels, RunOnTheBestSimdTargetOfTheCpu) {
+  const std::vector<std::int64_t> targets = simd_targets();
+  ASSERT_FALSE(targets.empty());
+  EXPECT_STREQ(simd_target(), hwy::TargetName(targets.front()));
+#if defined(__x86_64__)
+  EXPECT_GE(targets.size(), 2U) << "x86-64 has at least SSSE3 and the scalar fallback";
+#endif
+}
 
 struct Points {
   std::vector<float> x, y, z, intensity;
@@ -65,258 +89,279 @@ Points random_points(int n, std::mt19937& rng) {
 }
 
 TEST(AlignmentKernels, WarpMatchesTheScalarReferenceOnEveryPoint) {
-  std::mt19937 rng(11);
-  const cv::Mat image = [] {
-    cv::Mat m(120, 160, CV_32FC1);
-    cv::randu(m, 0.0F, 1.0F);
-    return m;
-  }();
-  const SE3 T = SE3::exp((Vector6d() << 0.02, -0.01, 0.03, 0.02, -0.03, 0.01).finished());
-  for (const Sampling sampling : {Sampling::kBilinear, Sampling::kBicubic})
-    for (int n : {0, 1, 7, 8, 9, 1003}) {
-      const Points p = random_points(n, rng);
-      std::vector<float> r_simd(p.x.size(), -1.0F), r_ref(p.x.size(), -1.0F);
-      std::vector<std::uint8_t> v_simd(p.x.size(), 7), v_ref(p.x.size(), 7);
-      const int in_simd = warp_residuals(p.view(), level_of(image), FloatPose::from(T), 1.1F,
-                                         -0.05F, r_simd.data(), v_simd.data(), sampling);
-      const int in_ref = warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(T), 1.1F,
-                                               -0.05F, r_ref.data(), v_ref.data(), sampling);
-      ASSERT_EQ(in_simd, in_ref) << n << " points";
-      int valid = 0;
-      for (int i = 0; i < n; ++i) {
-        const auto s = static_cast<std::size_t>(i);
-        ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
-        ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
-        // The random image changes by up to 1 per pixel and u, v round differently by ~1e-5 px.
-        EXPECT_NEAR(r_simd[s], r_ref[s], 1e-4F) << "point " << i;
-        if (v_simd[s] == 0) {
-          EXPECT_EQ(r_simd[s], 0.0F);
+  on_every_simd_target([&] {
+    std::mt19937 rng(11);
+    const cv::Mat image = [] {
+      cv::Mat m(120, 160, CV_32FC1);
+      cv::randu(m, 0.0F, 1.0F);
+      return m;
+    }();
+    const SE3 T = SE3::exp((Vector6d() << 0.02, -0.01, 0.03, 0.02, -0.03, 0.01).finished());
+    for (const Sampling sampling : {Sampling::kBilinear, Sampling::kBicubic})
+      for (int n : {0, 1, 7, 8, 9, 15, 16, 17, 33, 1003}) {
+        const Points p = random_points(n, rng);
+        std::vector<float> r_simd(p.x.size(), -1.0F), r_ref(p.x.size(), -1.0F);
+        std::vector<std::uint8_t> v_simd(p.x.size(), 7), v_ref(p.x.size(), 7);
+        const int in_simd = warp_residuals(p.view(), level_of(image), FloatPose::from(T), 1.1F,
+                                           -0.05F, r_simd.data(), v_simd.data(), sampling);
+        const int in_ref =
+            warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(T), 1.1F, -0.05F,
+                                  r_ref.data(), v_ref.data(), sampling);
+        ASSERT_EQ(in_simd, in_ref) << n << " points";
+        int valid = 0;
+        for (int i = 0; i < n; ++i) {
+          const auto s = static_cast<std::size_t>(i);
+          ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
+          ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
+          // The random image changes by up to 1 per pixel and u, v round differently by ~1e-5 px.
+          EXPECT_NEAR(r_simd[s], r_ref[s], 1e-4F) << "point " << i;
+          if (v_simd[s] == 0) {
+            EXPECT_EQ(r_simd[s], 0.0F);
+          }
+          valid += v_simd[s];
         }
-        valid += v_simd[s];
+        EXPECT_EQ(valid, in_simd);
+        if (n > 100) {
+          EXPECT_GT(in_simd, n / 2);  // the test exercises both kinds of point
+          EXPECT_LT(in_simd, n);
+        }
       }
-      EXPECT_EQ(valid, in_simd);
-      if (n > 100) {
-        EXPECT_GT(in_simd, n / 2);  // the test exercises both kinds of point
-        EXPECT_LT(in_simd, n);
-      }
-    }
+  });
 }
 
 // The point-to-plane warp, SIMD against the scalar reference: the random points of the
 // photometric test with random unit normals (some without one), on a depth map of two surfaces
 // (an occlusion edge the 2x2 test must reject), holes, NaN, and far values.
 TEST(AlignmentKernels, PointToPlaneWarpMatchesTheScalarReferenceOnEveryPoint) {
-  std::mt19937 rng(5);
-  cv::Mat depth(120, 160, CV_32FC1);
-  cv::randu(depth, 1.5F, 1.6F);
-  depth.colRange(100, 160).setTo(3.0F);  // a second surface behind: an edge at u = 100
-  std::uniform_int_distribution<int> col(0, 159), row(0, 119);
-  for (int k = 0; k < 300; ++k) depth.at<float>(row(rng), col(rng)) = 0.0F;
-  for (int k = 0; k < 30; ++k) {
-    depth.at<float>(row(rng), col(rng)) = std::numeric_limits<float>::quiet_NaN();
-  }
-  for (int k = 0; k < 30; ++k) depth.at<float>(row(rng), col(rng)) = 5e3F;
-  const SE3 T = SE3::exp((Vector6d() << 0.02, -0.01, 0.03, 0.02, -0.03, 0.01).finished());
-  std::normal_distribution<float> n01(0.0F, 1.0F);
-  std::uniform_real_distribution<float> pick(0.0F, 1.0F);
-  for (int n : {0, 1, 7, 8, 9, 1003}) {
-    const Points p = random_points(n, rng);
-    const auto size = p.x.size();
-    std::vector<float> nx(size), ny(size), nz(size), ndp(size);
-    std::vector<std::uint8_t> has(size, 0);
-    for (int i = 0; i < n; ++i) {
-      const auto s = static_cast<std::size_t>(i);
-      const Eigen::Vector3f nrm = Eigen::Vector3f(n01(rng), n01(rng), n01(rng)).normalized();
-      nx[s] = nrm.x();
-      ny[s] = nrm.y();
-      nz[s] = nrm.z();
-      ndp[s] = nx[s] * p.x[s] + ny[s] * p.y[s] + nz[s] * p.z[s];
-      has[s] = pick(rng) < 0.9F ? 1 : 0;
+  on_every_simd_target([&] {
+    std::mt19937 rng(5);
+    cv::Mat depth(120, 160, CV_32FC1);
+    cv::randu(depth, 1.5F, 1.6F);
+    depth.colRange(100, 160).setTo(3.0F);  // a second surface behind: an edge at u = 100
+    std::uniform_int_distribution<int> col(0, 159), row(0, 119);
+    for (int k = 0; k < 300; ++k) depth.at<float>(row(rng), col(rng)) = 0.0F;
+    for (int k = 0; k < 30; ++k) {
+      depth.at<float>(row(rng), col(rng)) = std::numeric_limits<float>::quiet_NaN();
     }
-    const PlanePointsView view{p.x.data(), p.y.data(), p.z.data(), nx.data(), ny.data(),
-                               nz.data(),  ndp.data(), has.data(), n};
-    std::vector<float> r_simd(size, -1.0F), r_ref(size, -1.0F);
-    std::vector<std::uint8_t> v_simd(size, 7), v_ref(size, 7);
-    std::vector<std::vector<float>> j_simd(6, std::vector<float>(size, -1.0F)), j_ref = j_simd;
-    float* const js[6] = {j_simd[0].data(), j_simd[1].data(), j_simd[2].data(),
-                          j_simd[3].data(), j_simd[4].data(), j_simd[5].data()};
-    float* const jr[6] = {j_ref[0].data(), j_ref[1].data(), j_ref[2].data(),
-                          j_ref[3].data(), j_ref[4].data(), j_ref[5].data()};
-    const int in_simd = warp_point_to_plane(view, level_of(depth), FloatPose::from(T), 0.05F,
-                                            r_simd.data(), v_simd.data(), js);
-    const int in_ref = warp_point_to_plane_scalar(view, level_of(depth), FloatPose::from(T), 0.05F,
-                                                  r_ref.data(), v_ref.data(), jr);
-    ASSERT_EQ(in_simd, in_ref) << n << " points";
-    int valid = 0, without_normal = 0;
-    for (int i = 0; i < n; ++i) {
-      const auto s = static_cast<std::size_t>(i);
-      ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
-      ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
-      if (has[s] == 0) {
-        EXPECT_EQ(v_simd[s], 0) << "point " << i;
-        ++without_normal;
+    for (int k = 0; k < 30; ++k) depth.at<float>(row(rng), col(rng)) = 5e3F;
+    const SE3 T = SE3::exp((Vector6d() << 0.02, -0.01, 0.03, 0.02, -0.03, 0.01).finished());
+    std::normal_distribution<float> n01(0.0F, 1.0F);
+    std::uniform_real_distribution<float> pick(0.0F, 1.0F);
+    for (int n : {0, 1, 7, 8, 9, 15, 16, 17, 33, 1003}) {
+      const Points p = random_points(n, rng);
+      const auto size = p.x.size();
+      std::vector<float> nx(size), ny(size), nz(size), ndp(size);
+      std::vector<std::uint8_t> has(size, 0);
+      for (int i = 0; i < n; ++i) {
+        const auto s = static_cast<std::size_t>(i);
+        const Eigen::Vector3f nrm = Eigen::Vector3f(n01(rng), n01(rng), n01(rng)).normalized();
+        nx[s] = nrm.x();
+        ny[s] = nrm.y();
+        nz[s] = nrm.z();
+        ndp[s] = nx[s] * p.x[s] + ny[s] * p.y[s] + nz[s] * p.z[s];
+        has[s] = pick(rng) < 0.9F ? 1 : 0;
       }
-      // Depths of ~1.5 m interpolated with rounding differences of ~1e-5 px.
-      EXPECT_NEAR(r_simd[s], r_ref[s], 1e-5F) << "point " << i;
-      for (int k = 0; k < 6; ++k) {
-        EXPECT_NEAR(j_simd[static_cast<std::size_t>(k)][s], j_ref[static_cast<std::size_t>(k)][s],
-                    1e-5F)
-            << "point " << i << ", column " << k;
+      const PlanePointsView view{p.x.data(), p.y.data(), p.z.data(), nx.data(), ny.data(),
+                                 nz.data(),  ndp.data(), has.data(), n};
+      std::vector<float> r_simd(size, -1.0F), r_ref(size, -1.0F);
+      std::vector<std::uint8_t> v_simd(size, 7), v_ref(size, 7);
+      std::vector<std::vector<float>> j_simd(6, std::vector<float>(size, -1.0F)), j_ref = j_simd;
+      float* const js[6] = {j_simd[0].data(), j_simd[1].data(), j_simd[2].data(),
+                            j_simd[3].data(), j_simd[4].data(), j_simd[5].data()};
+      float* const jr[6] = {j_ref[0].data(), j_ref[1].data(), j_ref[2].data(),
+                            j_ref[3].data(), j_ref[4].data(), j_ref[5].data()};
+      const int in_simd = warp_point_to_plane(view, level_of(depth), FloatPose::from(T), 0.05F,
+                                              r_simd.data(), v_simd.data(), js);
+      const int in_ref = warp_point_to_plane_scalar(view, level_of(depth), FloatPose::from(T),
+                                                    0.05F, r_ref.data(), v_ref.data(), jr);
+      ASSERT_EQ(in_simd, in_ref) << n << " points";
+      int valid = 0, without_normal = 0;
+      for (int i = 0; i < n; ++i) {
+        const auto s = static_cast<std::size_t>(i);
+        ASSERT_EQ(v_simd[s], v_ref[s]) << "point " << i;
+        ASSERT_TRUE(v_simd[s] == 0 || v_simd[s] == 1);
+        if (has[s] == 0) {
+          EXPECT_EQ(v_simd[s], 0) << "point " << i;
+          ++without_normal;
+        }
+        // Depths of ~1.5 m interpolated with rounding differences of ~1e-5 px.
+        EXPECT_NEAR(r_simd[s], r_ref[s], 1e-5F) << "point " << i;
+        for (int k = 0; k < 6; ++k) {
+          EXPECT_NEAR(j_simd[static_cast<std::size_t>(k)][s], j_ref[static_cast<std::size_t>(k)][s],
+                      1e-5F)
+              << "point " << i << ", column " << k;
+        }
+        if (v_simd[s] == 0) {
+          EXPECT_EQ(r_simd[s], 0.0F);
+          for (int k = 0; k < 6; ++k) EXPECT_EQ(j_simd[static_cast<std::size_t>(k)][s], 0.0F);
+        }
+        valid += v_simd[s];
       }
-      if (v_simd[s] == 0) {
-        EXPECT_EQ(r_simd[s], 0.0F);
-        for (int k = 0; k < 6; ++k) EXPECT_EQ(j_simd[static_cast<std::size_t>(k)][s], 0.0F);
+      EXPECT_EQ(valid, in_simd);
+      if (n > 100) {
+        EXPECT_GT(in_simd, n / 4);  // the test exercises both kinds of point
+        EXPECT_LT(in_simd, n - without_normal);
       }
-      valid += v_simd[s];
     }
-    EXPECT_EQ(valid, in_simd);
-    if (n > 100) {
-      EXPECT_GT(in_simd, n / 4);  // the test exercises both kinds of point
-      EXPECT_LT(in_simd, n - without_normal);
-    }
-  }
+  });
 }
 
 TEST(AlignmentKernels, WarpOfALinearImageGivesTheKnownResidual) {
-  const cv::Mat image = ramp_image(160, 120);
-  const SE3 T = SE3::exp((Vector6d() << 0.05, 0.02, -0.1, 0.0, 0.02, 0.01).finished());
-  const FloatPose pose = FloatPose::from(T);
-  Points p(64);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> u(20.0F, 140.0F), v(20.0F, 100.0F), z(1.0F, 3.0F);
-  for (std::size_t i = 0; i < 64; ++i) {
-    const float Z = z(rng);
-    p.x[i] = (u(rng) - 80.0F) / 300.0F * Z;
-    p.y[i] = (v(rng) - 60.0F) / 300.0F * Z;
-    p.z[i] = Z;
-    p.intensity[i] = 0.3F;
-  }
-  std::vector<float> r(p.x.size());
-  std::vector<std::uint8_t> valid(p.x.size());
-  const int inside =
-      warp_residuals(p.view(), level_of(image), pose, 0.9F, 0.02F, r.data(), valid.data());
-  int expected_inside = 0;
-  for (std::size_t i = 0; i < 64; ++i) {
-    const Eigen::Vector3d Q = T * Eigen::Vector3d(p.x[i], p.y[i], p.z[i]);
-    const double uq = 300.0 * Q.x() / Q.z() + 80.0;
-    const double vq = 300.0 * Q.y() / Q.z() + 60.0;
-    const bool in = uq >= 0.0 && uq < 159.0 && vq >= 0.0 && vq < 119.0;
-    expected_inside += in ? 1 : 0;
-    EXPECT_EQ(valid[i], in ? 1 : 0) << "point " << i << " at " << uq << ", " << vq;
-    if (!in) continue;
-    const double expected = 0.9 * (0.1 + 0.002 * uq + 0.001 * vq) + 0.02 - 0.3;
-    EXPECT_NEAR(r[i], expected, 2e-5) << "point " << i;
-  }
-  EXPECT_EQ(inside, expected_inside);
-  EXPECT_GT(inside, 48);
+  on_every_simd_target([&] {
+    const cv::Mat image = ramp_image(160, 120);
+    const SE3 T = SE3::exp((Vector6d() << 0.05, 0.02, -0.1, 0.0, 0.02, 0.01).finished());
+    const FloatPose pose = FloatPose::from(T);
+    Points p(64);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(20.0F, 140.0F), v(20.0F, 100.0F), z(1.0F, 3.0F);
+    for (std::size_t i = 0; i < 64; ++i) {
+      const float Z = z(rng);
+      p.x[i] = (u(rng) - 80.0F) / 300.0F * Z;
+      p.y[i] = (v(rng) - 60.0F) / 300.0F * Z;
+      p.z[i] = Z;
+      p.intensity[i] = 0.3F;
+    }
+    std::vector<float> r(p.x.size());
+    std::vector<std::uint8_t> valid(p.x.size());
+    const int inside =
+        warp_residuals(p.view(), level_of(image), pose, 0.9F, 0.02F, r.data(), valid.data());
+    int expected_inside = 0;
+    for (std::size_t i = 0; i < 64; ++i) {
+      const Eigen::Vector3d Q = T * Eigen::Vector3d(p.x[i], p.y[i], p.z[i]);
+      const double uq = 300.0 * Q.x() / Q.z() + 80.0;
+      const double vq = 300.0 * Q.y() / Q.z() + 60.0;
+      const bool in = uq >= 0.0 && uq < 159.0 && vq >= 0.0 && vq < 119.0;
+      expected_inside += in ? 1 : 0;
+      EXPECT_EQ(valid[i], in ? 1 : 0) << "point " << i << " at " << uq << ", " << vq;
+      if (!in) continue;
+      const double expected = 0.9 * (0.1 + 0.002 * uq + 0.001 * vq) + 0.02 - 0.3;
+      EXPECT_NEAR(r[i], expected, 2e-5) << "point " << i;
+    }
+    EXPECT_EQ(inside, expected_inside);
+    EXPECT_GT(inside, 48);
+  });
 }
 
 // Catmull-Rom reproduces quadratics exactly; bilinear errs by the curvature times a quarter of a
 // pixel squared. Both paths, interior points and points within a pixel of the border (where
 // bicubic falls back to bilinear).
 TEST(AlignmentKernels, BicubicSamplingReproducesAQuadraticImage) {
-  const int w = 160, h = 120;
-  auto f = [](double u, double v) {
-    return 0.1 + 0.002 * u + 0.001 * v + 2e-5 * u * u + 3e-5 * v * v - 1e-5 * u * v;
-  };
-  cv::Mat image(h, w, CV_32FC1);
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) image.at<float>(v, u) = static_cast<float>(f(u, v));
-  }
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> ui(1.0F, w - 2.0F), vi(1.0F, h - 2.0F), frac(0.0F, 1.0F);
-  const int n = 203;
-  Points p(n);
-  std::vector<double> us(n), vs(n);
-  for (int i = 0; i < n; ++i) {
-    const auto s = static_cast<std::size_t>(i);
-    // Every 10th point in the border band [0, 1) x rows, the rest inside.
-    const float u = i % 10 == 0 ? frac(rng) * 0.999F : ui(rng) * 0.9999F;
-    const float v = vi(rng) * 0.9999F;
-    us[s] = u;
-    vs[s] = v;
-    p.x[s] = (u - 80.0F) / 300.0F;  // Z = 1: pixel (u, v) under the identity
-    p.y[s] = (v - 60.0F) / 300.0F;
-    p.z[s] = 1.0F;
-    p.intensity[s] = 0.0F;
-  }
-  for (const bool simd : {true, false}) {
-    std::vector<float> rc(p.x.size()), rl(p.x.size());
-    std::vector<std::uint8_t> valid(p.x.size());
-    const auto run = [&](Sampling smp, std::vector<float>& r) {
-      return simd ? warp_residuals(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F, 0.0F,
-                                   r.data(), valid.data(), smp)
-                  : warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F,
-                                          0.0F, r.data(), valid.data(), smp);
+  on_every_simd_target([&] {
+    const int w = 160, h = 120;
+    auto f = [](double u, double v) {
+      return 0.1 + 0.002 * u + 0.001 * v + 2e-5 * u * u + 3e-5 * v * v - 1e-5 * u * v;
     };
-    ASSERT_EQ(run(Sampling::kBicubic, rc), n);
-    ASSERT_EQ(run(Sampling::kBilinear, rl), n);
-    double max_bilinear_error = 0.0;
+    cv::Mat image(h, w, CV_32FC1);
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) image.at<float>(v, u) = static_cast<float>(f(u, v));
+    }
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> ui(1.0F, w - 2.0F), vi(1.0F, h - 2.0F), frac(0.0F, 1.0F);
+    const int n = 203;
+    Points p(n);
+    std::vector<double> us(n), vs(n);
     for (int i = 0; i < n; ++i) {
       const auto s = static_cast<std::size_t>(i);
-      const double truth = f(us[s], vs[s]);
-      if (i % 10 == 0) {
-        EXPECT_EQ(rc[s], rl[s]) << "border point " << i;  // the bilinear fallback
-        continue;
-      }
-      EXPECT_NEAR(rc[s], truth, 2e-6) << "point " << i << (simd ? " (simd)" : " (scalar)");
-      max_bilinear_error =
-          std::max(max_bilinear_error, std::fabs(static_cast<double>(rl[s]) - truth));
+      // Every 10th point in the border band [0, 1) x rows, the rest inside.
+      const float u = i % 10 == 0 ? frac(rng) * 0.999F : ui(rng) * 0.9999F;
+      const float v = vi(rng) * 0.9999F;
+      us[s] = u;
+      vs[s] = v;
+      p.x[s] = (u - 80.0F) / 300.0F;  // Z = 1: pixel (u, v) under the identity
+      p.y[s] = (v - 60.0F) / 300.0F;
+      p.z[s] = 1.0F;
+      p.intensity[s] = 0.0F;
     }
-    EXPECT_GT(max_bilinear_error, 5e-6);  // the comparison can tell the two apart
-  }
+    for (const bool simd : {true, false}) {
+      std::vector<float> rc(p.x.size()), rl(p.x.size());
+      std::vector<std::uint8_t> valid(p.x.size());
+      const auto run = [&](Sampling smp, std::vector<float>& r) {
+        return simd ? warp_residuals(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F, 0.0F,
+                                     r.data(), valid.data(), smp)
+                    : warp_residuals_scalar(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F,
+                                            0.0F, r.data(), valid.data(), smp);
+      };
+      ASSERT_EQ(run(Sampling::kBicubic, rc), n);
+      ASSERT_EQ(run(Sampling::kBilinear, rl), n);
+      double max_bilinear_error = 0.0;
+      for (int i = 0; i < n; ++i) {
+        const auto s = static_cast<std::size_t>(i);
+        const double truth = f(us[s], vs[s]);
+        if (i % 10 == 0) {
+          EXPECT_EQ(rc[s], rl[s]) << "border point " << i;  // the bilinear fallback
+          continue;
+        }
+        EXPECT_NEAR(rc[s], truth, 2e-6) << "point " << i << (simd ? " (simd)" : " (scalar)");
+        max_bilinear_error =
+            std::max(max_bilinear_error, std::fabs(static_cast<double>(rl[s]) - truth));
+      }
+      EXPECT_GT(max_bilinear_error, 5e-6);  // the comparison can tell the two apart
+    }
+  });
 }
 
 // Bilinear sampling reads (u + 1, v + 1): the last column and row are outside, for the 8-wide
 // and the scalar tail alike.
 TEST(AlignmentKernels, LastColumnAndRowAreOutside) {
-  const cv::Mat image = ramp_image(160, 120);
-  const float us[] = {0.01F, 158.99F, 159.0F, 80.0F, 80.0F, -0.001F, 40.0F, 40.0F, 159.0F};
-  const float vs[] = {0.01F, 118.99F, 60.0F, 119.0F, 118.0F, 10.0F, 40.0F, 40.0F, 119.0F};
-  const std::uint8_t expected[] = {1, 1, 0, 0, 1, 0, 1, 1, 0};
-  Points p(9);
-  for (std::size_t i = 0; i < 9; ++i) {
-    p.x[i] = (us[i] - 80.0F) / 300.0F * 2.0F;
-    p.y[i] = (vs[i] - 60.0F) / 300.0F * 2.0F;
-    p.z[i] = 2.0F;
-  }
-  std::vector<float> r(p.x.size());
-  std::vector<std::uint8_t> valid(p.x.size());
-  EXPECT_EQ(warp_residuals(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F, 0.0F, r.data(),
-                           valid.data()),
-            5);
-  for (std::size_t i = 0; i < 9; ++i) EXPECT_EQ(valid[i], expected[i]) << "point " << i;
+  on_every_simd_target([&] {
+    const cv::Mat image = ramp_image(160, 120);
+    const float us[] = {0.01F, 158.99F, 159.0F, 80.0F, 80.0F, -0.001F, 40.0F, 40.0F, 159.0F};
+    const float vs[] = {0.01F, 118.99F, 60.0F, 119.0F, 118.0F, 10.0F, 40.0F, 40.0F, 119.0F};
+    const std::uint8_t expected[] = {1, 1, 0, 0, 1, 0, 1, 1, 0};
+    Points p(9);
+    for (std::size_t i = 0; i < 9; ++i) {
+      p.x[i] = (us[i] - 80.0F) / 300.0F * 2.0F;
+      p.y[i] = (vs[i] - 60.0F) / 300.0F * 2.0F;
+      p.z[i] = 2.0F;
+    }
+    std::vector<float> r(p.x.size());
+    std::vector<std::uint8_t> valid(p.x.size());
+    EXPECT_EQ(warp_residuals(p.view(), level_of(image), FloatPose::from(SE3()), 1.0F, 0.0F,
+                             r.data(), valid.data()),
+              5);
+    for (std::size_t i = 0; i < 9; ++i) EXPECT_EQ(valid[i], expected[i]) << "point " << i;
+  });
 }
 
 TEST(AlignmentKernels, TukeySumsMatchThePerPointFunctions) {
-  std::mt19937 rng(2);
-  std::normal_distribution<float> noise(0.0F, 0.05F);
-  std::bernoulli_distribution outside(0.1);
-  for (int n : {5, 8, 1001}) {
-    std::vector<float> r(static_cast<std::size_t>(n)), w(r.size(), -1.0F);
-    std::vector<std::uint8_t> valid(r.size());
-    for (std::size_t i = 0; i < r.size(); ++i) {
-      r[i] = noise(rng) * (i % 7 == 0 ? 10.0F : 1.0F);  // outliers beyond c sigma
-      valid[i] = outside(rng) ? 0 : 1;
+  on_every_simd_target([&] {
+    std::mt19937 rng(2);
+    std::normal_distribution<float> noise(0.0F, 0.05F);
+    std::bernoulli_distribution outside(0.1);
+    for (int n : {5, 8, 17, 1001}) {
+      std::vector<float> r(static_cast<std::size_t>(n)), w(r.size(), -1.0F);
+      std::vector<std::uint8_t> valid(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        r[i] = noise(rng) * (i % 7 == 0 ? 10.0F : 1.0F);  // outliers beyond c sigma
+        valid[i] = outside(rng) ? 0 : 1;
+      }
+      const float inv_sigma = 1.0F / 0.04F;
+      double cost = 0.0;
+      int inliers = 0;
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        const float u = r[i] * inv_sigma;
+        cost += static_cast<double>(valid[i] ? tukey_cost(u, kC) : kC * kC / 6.0F);
+        inliers += (valid[i] && std::fabs(u) < kC) ? 1 : 0;
+      }
+      EXPECT_NEAR(tukey_cost_sum(r.data(), valid.data(), n, inv_sigma, kC), cost, 1e-4 * cost);
+      EXPECT_NEAR(tukey_cost_sum_scalar(r.data(), valid.data(), n, inv_sigma, kC), cost,
+                  1e-4 * cost);
+      std::vector<float> w_scalar(r.size(), -1.0F);
+      const WeightSums sums_scalar =
+          tukey_weights_scalar(r.data(), valid.data(), n, inv_sigma, kC, w_scalar.data());
+      EXPECT_NEAR(sums_scalar.cost, cost, 1e-4 * cost);
+      EXPECT_EQ(sums_scalar.inliers, inliers);
+      const WeightSums sums = tukey_weights(r.data(), valid.data(), n, inv_sigma, kC, w.data());
+      EXPECT_NEAR(sums.cost, cost, 1e-4 * cost);
+      EXPECT_EQ(sums.inliers, inliers);
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        const float expected =
+            valid[i] ? tukey_weight(r[i] * inv_sigma, kC) * inv_sigma * inv_sigma : 0.0F;
+        EXPECT_NEAR(w[i], expected, 1e-5F * inv_sigma * inv_sigma) << "point " << i;
+        EXPECT_NEAR(w_scalar[i], expected, 1e-5F * inv_sigma * inv_sigma) << "point " << i;
+      }
     }
-    const float inv_sigma = 1.0F / 0.04F;
-    double cost = 0.0;
-    int inliers = 0;
-    for (std::size_t i = 0; i < r.size(); ++i) {
-      const float u = r[i] * inv_sigma;
-      cost += static_cast<double>(valid[i] ? tukey_cost(u, kC) : kC * kC / 6.0F);
-      inliers += (valid[i] && std::fabs(u) < kC) ? 1 : 0;
-    }
-    EXPECT_NEAR(tukey_cost_sum(r.data(), valid.data(), n, inv_sigma, kC), cost, 1e-4 * cost);
-    const WeightSums sums = tukey_weights(r.data(), valid.data(), n, inv_sigma, kC, w.data());
-    EXPECT_NEAR(sums.cost, cost, 1e-4 * cost);
-    EXPECT_EQ(sums.inliers, inliers);
-    for (std::size_t i = 0; i < r.size(); ++i) {
-      const float expected =
-          valid[i] ? tukey_weight(r[i] * inv_sigma, kC) * inv_sigma * inv_sigma : 0.0F;
-      EXPECT_NEAR(w[i], expected, 1e-5F * inv_sigma * inv_sigma) << "point " << i;
-    }
-  }
+  });
 }
 
 TEST(AlignmentKernels, AbsoluteResidualsOfValidPointsArePacked) {
@@ -333,42 +378,44 @@ TEST(AlignmentKernels, AbsoluteResidualsOfValidPointsArePacked) {
 // bracket, outside it on both sides, none and non-finite, on counts that are not a multiple of
 // the SIMD width, with ties and invalid points.
 TEST(AlignmentKernels, AbsMedianIsTheUpperMedianWhateverTheHint) {
-  std::mt19937 rng(7);
-  std::normal_distribution<float> noise(0.0F, 0.05F);
-  std::bernoulli_distribution keep(0.8);
-  for (const int n : {1, 2, 7, 8, 9, 100, 6001}) {
-    for (const bool ties : {false, true}) {
-      std::vector<float> r(static_cast<std::size_t>(n)), scratch(r.size());
-      std::vector<std::uint8_t> valid(r.size());
-      for (std::size_t i = 0; i < r.size(); ++i) {
-        r[i] =
-            ties ? 0.01F * static_cast<float>(static_cast<int>(noise(rng) * 100.0F)) : noise(rng);
-        valid[i] = keep(rng) ? 1 : 0;
-      }
-      std::vector<float> packed(r.size());
-      const int m = gather_abs_valid(r.data(), valid.data(), n, packed.data());
-      packed.resize(static_cast<std::size_t>(m));
-      float expected = 0.0F;
-      if (m > 0) {
-        std::sort(packed.begin(), packed.end());
-        expected = packed[static_cast<std::size_t>(m / 2)];
-      }
-      for (const float hint :
-           {expected, expected * 1.05F, expected * 0.95F, expected * 3.0F, expected * 0.2F, 0.0F,
-            -1.0F, std::numeric_limits<float>::quiet_NaN(),
-            std::numeric_limits<float>::infinity()}) {
-        const AbsMedian got = abs_median(r.data(), valid.data(), n, hint, scratch.data());
-        EXPECT_EQ(got.valid, m) << "n " << n << " hint " << hint;
-        EXPECT_EQ(got.median, expected) << "n " << n << " ties " << ties << " hint " << hint;
+  on_every_simd_target([&] {
+    std::mt19937 rng(7);
+    std::normal_distribution<float> noise(0.0F, 0.05F);
+    std::bernoulli_distribution keep(0.8);
+    for (const int n : {1, 2, 7, 8, 9, 17, 33, 100, 6001}) {
+      for (const bool ties : {false, true}) {
+        std::vector<float> r(static_cast<std::size_t>(n)), scratch(r.size());
+        std::vector<std::uint8_t> valid(r.size());
+        for (std::size_t i = 0; i < r.size(); ++i) {
+          r[i] =
+              ties ? 0.01F * static_cast<float>(static_cast<int>(noise(rng) * 100.0F)) : noise(rng);
+          valid[i] = keep(rng) ? 1 : 0;
+        }
+        std::vector<float> packed(r.size());
+        const int m = gather_abs_valid(r.data(), valid.data(), n, packed.data());
+        packed.resize(static_cast<std::size_t>(m));
+        float expected = 0.0F;
+        if (m > 0) {
+          std::sort(packed.begin(), packed.end());
+          expected = packed[static_cast<std::size_t>(m / 2)];
+        }
+        for (const float hint :
+             {expected, expected * 1.05F, expected * 0.95F, expected * 3.0F, expected * 0.2F, 0.0F,
+              -1.0F, std::numeric_limits<float>::quiet_NaN(),
+              std::numeric_limits<float>::infinity()}) {
+          const AbsMedian got = abs_median(r.data(), valid.data(), n, hint, scratch.data());
+          EXPECT_EQ(got.valid, m) << "n " << n << " hint " << hint;
+          EXPECT_EQ(got.median, expected) << "n " << n << " ties " << ties << " hint " << hint;
+        }
       }
     }
-  }
-  const std::vector<float> r(5, 1.0F);
-  const std::vector<std::uint8_t> invalid(5, 0);
-  std::vector<float> scratch(5);
-  const AbsMedian none = abs_median(r.data(), invalid.data(), 5, 1.0F, scratch.data());
-  EXPECT_EQ(none.valid, 0);
-  EXPECT_EQ(none.median, 0.0F);
+    const std::vector<float> r(5, 1.0F);
+    const std::vector<std::uint8_t> invalid(5, 0);
+    std::vector<float> scratch(5);
+    const AbsMedian none = abs_median(r.data(), invalid.data(), 5, 1.0F, scratch.data());
+    EXPECT_EQ(none.valid, 0);
+    EXPECT_EQ(none.median, 0.0F);
+  });
 }
 
 TEST(RobustSigma, FromTheMedianEqualsTheSelection) {
@@ -398,6 +445,9 @@ void check_normal_equations(int n, std::mt19937& rng) {
   Matrix8d H = Matrix8d::Identity();  // the kernel adds to what is there
   Vector8d g = Vector8d::Ones();
   accumulate_normal_equations<C>(Jp, n, w.data(), r.data(), H, g);
+  Matrix8d H_scalar = Matrix8d::Identity();
+  Vector8d g_scalar = Vector8d::Ones();
+  accumulate_normal_equations_scalar<C>(Jp, n, w.data(), r.data(), H_scalar, g_scalar);
   const Eigen::MatrixXd H_ref = J.transpose() * wv.asDiagonal() * J;
   const Eigen::VectorXd g_ref = J.transpose() * (wv.array() * rv.array()).matrix();
   const double tol = 1e-5 * std::max(1, n);
@@ -405,17 +455,21 @@ void check_normal_equations(int n, std::mt19937& rng) {
     for (int b = 0; b < 8; ++b) {
       const double expected = (a < C && b < C ? H_ref(a, b) : 0.0) + (a == b ? 1.0 : 0.0);
       EXPECT_NEAR(H(a, b), expected, tol) << C << " columns, H(" << a << ", " << b << ")";
+      EXPECT_NEAR(H_scalar(a, b), expected, 1e-9 * std::max(1, n)) << "scalar reference";
     }
     EXPECT_NEAR(g(a), (a < C ? g_ref(a) : 0.0) + 1.0, tol) << C << " columns, g(" << a << ")";
+    EXPECT_NEAR(g_scalar(a), (a < C ? g_ref(a) : 0.0) + 1.0, 1e-9 * std::max(1, n));
   }
 }
 
 TEST(AlignmentKernels, NormalEquationsEqualTheDenseProduct) {
-  std::mt19937 rng(9);
-  for (int n : {1, 8, 13, 777}) {
-    check_normal_equations<8>(n, rng);
-    check_normal_equations<6>(n, rng);
-  }
+  on_every_simd_target([&] {
+    std::mt19937 rng(9);
+    for (int n : {1, 8, 13, 16, 31, 777}) {
+      check_normal_equations<8>(n, rng);
+      check_normal_equations<6>(n, rng);
+    }
+  });
 }
 
 }  // namespace

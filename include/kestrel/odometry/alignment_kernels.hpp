@@ -1,17 +1,14 @@
 // The per-iteration kernels of the direct alignment (thesis 3.5-3.10) on structure-of-arrays
 // point data: warp + bilinear sample + photometric residual, Tukey cost and weights, and the
 // weighted normal equations. DirectTracker calls them once per Gauss-Newton iteration; they are
-// free functions on plain arrays so that each can be tested and benchmarked alone.
+// free functions on plain arrays so that each can be tested and benchmarked alone. Each is
+// written once in portable SIMD (Google Highway: AVX-512, AVX2, SSE4 on x86, NEON on ARM, the
+// best one the CPU has chosen at run time) and has one scalar reference (*_scalar).
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
-#include <type_traits>
-#include <utility>
-
-#if defined(__AVX2__) && defined(__FMA__)
-#include <immintrin.h>
-#endif
+#include <vector>
 
 #include "kestrel/geometry/se3.hpp"
 #include "kestrel/image/interpolation.hpp"
@@ -19,9 +16,9 @@
 
 namespace kestrel::odometry::kernels {
 
-/// Accumulation lanes of the vectorised loops (one AVX register of floats). Per-point arrays
-/// handed to accumulate_normal_equations are padded to a multiple of it, with zero weights.
-inline constexpr int kLanes = 8;
+/// The most float lanes a SIMD target of the kernels uses (16: AVX-512). Per-point arrays handed
+/// to accumulate_normal_equations are padded to a multiple of it, with zero weights.
+inline constexpr int kLanes = 16;
 inline int pad_to_lanes(int n) { return (n + kLanes - 1) / kLanes * kLanes; }
 
 /// T_cur_ref in floats, unrolled (scalars the loops keep in registers).
@@ -53,8 +50,7 @@ using Sampling = image::Interpolation;
 
 /// r_i = alpha I_cur(pi(T_cur_ref P_i)) + beta - I_ref,i for every point whose projection lies in
 /// [0, w-1) x [0, h-1) with Z > 1 mm (valid_i = 1); elsewhere r_i = 0, valid_i = 0. Returns the
-/// number of valid points. NaN coordinates are invalid. Uses AVX2 gathers where compiled for
-/// them, else warp_residuals_scalar.
+/// number of valid points. NaN coordinates are invalid.
 int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatPose& T_cur_ref,
                    float alpha, float beta, float* residual, std::uint8_t* valid,
                    Sampling sampling = Sampling::kBilinear);
@@ -84,8 +80,7 @@ struct PlanePointsView {
 /// (point_to_plane_pose_jacobian) into jac[0..5], for every point with a normal whose
 /// projection lies in [0, w-1) x [0, h-1) with Z > 1 mm and whose 2x2 depth cell is one surface
 /// (every depth in (0, 1e3), the farthest within (1 + max_spread) of the nearest): valid_i = 1.
-/// Elsewhere r, J and valid are 0. Returns the number of valid points. Uses AVX2 gathers where
-/// compiled for them, else warp_point_to_plane_scalar.
+/// Elsewhere r, J and valid are 0. Returns the number of valid points.
 int warp_point_to_plane(const PlanePointsView& points, const LevelImage& depth,
                         const FloatPose& T_cur_ref, float max_spread, float* residual,
                         std::uint8_t* valid, float* const* jac);
@@ -99,6 +94,9 @@ int warp_point_to_plane_scalar(const PlanePointsView& points, const LevelImage& 
 /// thesis eq. 3.39 integrated): the robust cost a step is accepted on.
 double tukey_cost_sum(const float* residual, const std::uint8_t* valid, int count, float inv_sigma,
                       float c);
+/// The reference implementation (one point at a time).
+double tukey_cost_sum_scalar(const float* residual, const std::uint8_t* valid, int count,
+                             float inv_sigma, float c);
 
 struct WeightSums {
   double cost = 0.0;  ///< as tukey_cost_sum
@@ -108,6 +106,9 @@ struct WeightSums {
 /// H^-1 is the covariance); 0 for invalid points. Returns the cost and inlier count as well.
 WeightSums tukey_weights(const float* residual, const std::uint8_t* valid, int count,
                          float inv_sigma, float c, float* weight);
+/// The reference implementation (one point at a time).
+WeightSums tukey_weights_scalar(const float* residual, const std::uint8_t* valid, int count,
+                                float inv_sigma, float c, float* weight);
 
 /// Writes |r_i| of the valid points, packed, to `out`; returns how many (the input of
 /// robust_sigma, thesis eq. 3.40).
@@ -128,99 +129,28 @@ struct AbsMedian {
 AbsMedian abs_median(const float* residual, const std::uint8_t* valid, int count, float hint,
                      float* scratch);
 
-#if defined(__AVX2__) && defined(__FMA__)
-namespace detail {
-
-// Row A of the normal equations: sum w J_A J_b for b = A..C-1 and sum w J_A r, each in one AVX
-// accumulator (C - A + 1 <= 9 of them: they stay in registers, unlike the 44 lane arrays of all
-// rows at once, which spill to memory; docs/odometry.md, "Speed").
-template <int A, int C>
-void accumulate_row(const float* const* J, int n, const float* w, const float* r, double* row) {
-  constexpr int kTerms = C - A + 1;
-  static_assert(kLanes == 8);
-  const float* ja = J[A];
-  __m256 acc[kTerms];
-#pragma GCC unroll 16
-  for (int t = 0; t < kTerms; ++t) acc[t] = _mm256_setzero_ps();
-  for (int i = 0; i < n; i += kLanes) {
-    const __m256 wa = _mm256_mul_ps(_mm256_loadu_ps(w + i), _mm256_loadu_ps(ja + i));
-#pragma GCC unroll 16
-    for (int b = A; b < C; ++b) {
-      acc[b - A] = _mm256_fmadd_ps(wa, _mm256_loadu_ps(J[b] + i), acc[b - A]);
-    }
-    acc[kTerms - 1] = _mm256_fmadd_ps(wa, _mm256_loadu_ps(r + i), acc[kTerms - 1]);
-  }
-  for (int t = 0; t < kTerms; ++t) {
-    alignas(32) float lanes[kLanes];
-    _mm256_store_ps(lanes, acc[t]);
-    double s = 0.0;
-    for (float x : lanes) s += static_cast<double>(x);
-    row[t] = s;
-  }
-}
-
-template <int C, int... A>
-void accumulate_rows(const float* const* J, int n, const float* w, const float* r, Matrix8d& H,
-                     Vector8d& g, std::integer_sequence<int, A...> /*rows*/) {
-  auto one_row = [&]<int Row>(std::integral_constant<int, Row>) {
-    double row[C - Row + 1];
-    accumulate_row<Row, C>(J, n, w, r, row);
-    for (int b = Row; b < C; ++b) {
-      H(Row, b) += row[b - Row];
-      if (b != Row) H(b, Row) += row[b - Row];
-    }
-    g(Row) += row[C - Row];
-  };
-  (one_row(std::integral_constant<int, A>{}), ...);
-}
-
-}  // namespace detail
-#endif
-
 /// Adds sum_i w_i J_i J_i^T and sum_i w_i J_i r_i over the first C columns of J (column-major
 /// arrays J[0..C-1], padded to kLanes with w = 0) to H and g. Lane accumulators in float, summed
-/// in double.
+/// in double. Defined for C = 6 (the point-to-plane term) and C = 8 (pose, gain and bias).
 template <int C>
-void accumulate_normal_equations(const float* const* J, int count, const float* w,
-                                 const float* r, Matrix8d& H, Vector8d& g) {
-  static_assert(C >= 1 && C <= 8);
-  const int n = pad_to_lanes(count);
-#if defined(__AVX2__) && defined(__FMA__)
-  detail::accumulate_rows<C>(J, n, w, r, H, g, std::make_integer_sequence<int, C>{});
-#else
-  // All terms at once in lane arrays the compiler vectorises: without the AVX2 intrinsics,
-  // row by row is the slower of the two (docs/odometry.md, "Speed").
-  constexpr int kH = C * (C + 1) / 2;
-  alignas(32) float acc[kH + C][kLanes] = {};
-  for (int i = 0; i < n; i += kLanes) {
-    float wj[C][kLanes];
-    for (int a = 0; a < C; ++a) {
-      for (int k = 0; k < kLanes; ++k) wj[a][k] = w[i + k] * J[a][i + k];
-    }
-    int term = 0;
-    for (int a = 0; a < C; ++a) {
-      for (int b = a; b < C; ++b, ++term) {
-        for (int k = 0; k < kLanes; ++k) acc[term][k] += wj[a][k] * J[b][i + k];
-      }
-    }
-    for (int a = 0; a < C; ++a) {
-      for (int k = 0; k < kLanes; ++k) acc[kH + a][k] += wj[a][k] * r[i + k];
-    }
-  }
-  auto sum = [&](int t) {
-    double s = 0.0;
-    for (int k = 0; k < kLanes; ++k) s += static_cast<double>(acc[t][k]);
-    return s;
-  };
-  int term = 0;
-  for (int a = 0; a < C; ++a) {
-    for (int b = a; b < C; ++b, ++term) {
-      H(a, b) += sum(term);
-      if (b != a) H(b, a) += sum(term);
-    }
-  }
-  for (int a = 0; a < C; ++a) g(a) += sum(kH + a);
-#endif
-}
+void accumulate_normal_equations(const float* const* J, int count, const float* w, const float* r,
+                                 Matrix8d& H, Vector8d& g);
+template <>
+void accumulate_normal_equations<6>(const float* const* J, int count, const float* w,
+                                    const float* r, Matrix8d& H, Vector8d& g);
+template <>
+void accumulate_normal_equations<8>(const float* const* J, int count, const float* w,
+                                    const float* r, Matrix8d& H, Vector8d& g);
+/// The reference implementation (one point at a time, in double). Needs no padding.
+template <int C>
+void accumulate_normal_equations_scalar(const float* const* J, int count, const float* w,
+                                        const float* r, Matrix8d& H, Vector8d& g);
+
+/// The SIMD target the kernels run on in this process (e.g. "AVX3", "AVX2", "NEON").
+const char* simd_target();
+/// Every SIMD target the kernels are compiled for that this CPU runs, best first, as Highway
+/// target bits (hwy::TargetName names them; tests select one with
+/// hwy::SetSupportedTargetsForTest).
+std::vector<std::int64_t> simd_targets();
 
 }  // namespace kestrel::odometry::kernels

@@ -1,0 +1,18 @@
+# Portable SIMD kernels with Google Highway (Debian libhwy-dev): each kernel is written once and
+# compiled for every x86 (SSSE3, SSE4, AVX2, AVX-512) or ARM (NEON) target the compiler can
+# emit, plus Highway's portable 128-bit emulation; at run time each call goes to the best target
+# the CPU supports. Compiling all of them (HWY_COMPILE_ALL_ATTAINABLE), not just those above
+# -march's baseline, lets the tests check every target on one machine and keeps a binary built
+# without -march=native fast. SVE is left out: the kernels keep vectors in arrays, which SVE's
+# sizeless vector types do not allow.
+find_package(hwy REQUIRED)
+
+# kestrel_use_highway(MODULE SOURCES...): MODULE links Highway; SOURCES are Highway
+# translation units that re-include themselves by file name (HWY_TARGET_INCLUDE).
+function(kestrel_use_highway module)
+  target_link_libraries(kestrel_${module} PRIVATE hwy::hwy)
+  target_include_directories(kestrel_${module} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  set_source_files_properties(${ARGN} DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR} PROPERTIES
+    COMPILE_DEFINITIONS
+      "HWY_COMPILE_ALL_ATTAINABLE;HWY_DISABLED_TARGETS=(HWY_SVE|HWY_SVE2|HWY_SVE_256|HWY_SVE2_128)")
+endfunction()

@@ -1,0 +1,38 @@
+// The scalar references of the alignment kernels over a range of points [begin, count): what
+// the SIMD kernels (alignment_kernels.cpp) run on the points that do not fill a vector. Private
+// to the odometry module; the public references are the *_scalar functions of
+// kestrel/odometry/alignment_kernels.hpp.
+#pragma once
+
+#include <cstdint>
+
+#include "kestrel/odometry/alignment_kernels.hpp"
+
+namespace kestrel::odometry::kernels {
+
+int warp_range_scalar(const PointsView& p, const LevelImage& cur, const FloatPose& T, float alpha,
+                      float beta, int begin, float* residual, std::uint8_t* valid,
+                      Sampling sampling);
+
+int point_to_plane_range_scalar(const PlanePointsView& p, const LevelImage& dep, const FloatPose& T,
+                                float max_spread, int begin, float* res, std::uint8_t* val,
+                                float* const* jac);
+
+double tukey_cost_range(const float* residual, const std::uint8_t* valid, int begin, int count,
+                        float inv_sigma, float c);
+
+WeightSums tukey_weights_range(const float* residual, const std::uint8_t* valid, int begin,
+                               int count, float inv_sigma, float c, float* weight);
+
+/// abs_median's counts around its bracket [lo, hi): valid points, those below, and those inside
+/// (packed into scratch[0..inside)).
+struct MedianBracket {
+  int valid = 0, below = 0, inside = 0;
+};
+void bracket_range(const float* residual, const std::uint8_t* valid, int begin, int count, float lo,
+                   float hi, MedianBracket& b, float* scratch);
+
+/// The element at index k of the n values in v (partially reorders v).
+float select_kth(float* v, int n, int k);
+
+}  // namespace kestrel::odometry::kernels
