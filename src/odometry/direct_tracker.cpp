@@ -5,11 +5,12 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
-#include <type_traits>
 #include <cmath>
 #include <cstdlib>
 #include <numbers>
 #include <optional>
+#include <span>
+#include <type_traits>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/gradient.hpp"
@@ -21,19 +22,29 @@
 #include "kestrel/odometry/point_selection.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
 #include "kestrel/odometry/warp_jacobian.hpp"
+#include "level_solver.hpp"
+#include "residual_terms.hpp"
 
 namespace kestrel::odometry {
 
 std::string_view to_string(TrackFailure failure) {
   switch (failure) {
-    case TrackFailure::kNone: return "none";
-    case TrackFailure::kInvalidInput: return "invalid_input";
-    case TrackFailure::kTooFewPoints: return "too_few_points";
-    case TrackFailure::kNoOverlap: return "no_overlap";
-    case TrackFailure::kHighResidual: return "high_residual";
-    case TrackFailure::kLowInlierRatio: return "low_inlier_ratio";
-    case TrackFailure::kImplausibleMotion: return "implausible_motion";
-    case TrackFailure::kNumerical: return "numerical";
+    case TrackFailure::kNone:
+      return "none";
+    case TrackFailure::kInvalidInput:
+      return "invalid_input";
+    case TrackFailure::kTooFewPoints:
+      return "too_few_points";
+    case TrackFailure::kNoOverlap:
+      return "no_overlap";
+    case TrackFailure::kHighResidual:
+      return "high_residual";
+    case TrackFailure::kLowInlierRatio:
+      return "low_inlier_ratio";
+    case TrackFailure::kImplausibleMotion:
+      return "implausible_motion";
+    case TrackFailure::kNumerical:
+      return "numerical";
   }
   return "unknown";
 }
@@ -43,9 +54,7 @@ namespace {
 using kernels::kLanes;
 using kernels::pad_to_lanes;
 
-double rotation_angle_deg(const SE3& T) {
-  return T.so3().log().norm() * 180.0 / std::numbers::pi;
-}
+double rotation_angle_deg(const SE3& T) { return T.so3().log().norm() * 180.0 / std::numbers::pi; }
 
 // How the current image is sampled on the finest or a coarser level (bicubic_finest_level,
 // bicubic_coarse_levels).
@@ -95,12 +104,10 @@ struct DirectTracker::Impl {
   SelectionScratch selection_scratch;
   std::vector<float> depth_scratch;
 
-  // Per-iteration buffers (sized to the largest level, padded to kLanes).
-  std::vector<float> residual, weight, abs_residual;
-  std::vector<std::uint8_t> valid;
-  std::vector<float> geo_residual, geo_weight;
-  std::array<std::vector<float>, 6> geo_jac;  // J_g at the current estimate (warp_jacobian.hpp)
-  std::vector<std::uint8_t> geo_valid;
+  // Per-iteration buffers of the residual terms (sized to the largest level, padded to kLanes)
+  // and the robust scales' scratch.
+  TermBuffers photometric_buffers, geometric_buffers;
+  std::vector<float> abs_residual;
 
   // T_rgb_depth of the current frame: maps its depth map's points (taken at depth_t_ns) into
   // the camera at the image's time (identity when simultaneous or without a motion estimate).
@@ -183,16 +190,19 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
   }
   options_.validate();
   if (options_.use_depth_residual) {
-    throw InputError("tracker option use_depth_residual: needs depth maps; not available with "
-                     "disparity input (stereo)");
+    throw InputError(
+        "tracker option use_depth_residual: needs depth maps; not available with "
+        "disparity input (stereo)");
   }
   if (options_.compensate_depth_time_offset) {
-    throw InputError("tracker option compensate_depth_time_offset: needs depth maps; not "
-                     "available with disparity input (stereo)");
+    throw InputError(
+        "tracker option compensate_depth_time_offset: needs depth maps; not "
+        "available with disparity input (stereo)");
   }
   if (options_.rolling_shutter_readout_s > 0.0) {
-    throw InputError("tracker option rolling_shutter_readout_s: RGB-D input only (the stereo "
-                     "path rectifies global-shutter views)");
+    throw InputError(
+        "tracker option rolling_shutter_readout_s: RGB-D input only (the stereo "
+        "path rectifies global-shutter views)");
   }
   camera_ = rig.left();
   impl_ = std::make_unique<Impl>(camera_, options_);
@@ -230,7 +240,8 @@ std::string check_image_and_map(const cv::Mat& image, const cv::Mat& map, const 
   if (t != CV_8UC3 && t != CV_8UC1 && t != CV_32FC1) {
     return "image type must be CV_8UC3, CV_8UC1 or CV_32FC1";
   }
-  if (map.type() != CV_32FC1) return std::string(map_name) + " type must be CV_32FC1 (" + unit + ")";
+  if (map.type() != CV_32FC1)
+    return std::string(map_name) + " type must be CV_32FC1 (" + unit + ")";
   if (image.cols != cam.width() || image.rows != cam.height() || map.size() != image.size()) {
     return "frame size " + std::to_string(image.cols) + "x" + std::to_string(image.rows) + " / " +
            map_name + " " + std::to_string(map.cols) + "x" + std::to_string(map.rows) +
@@ -270,16 +281,9 @@ struct TrackerAccess {
       max_count =
           std::max(max_count, build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l));
     }
-    if (m.residual.size() < max_count) {
-      m.residual.resize(max_count);
-      m.weight.resize(max_count);
-      m.abs_residual.resize(max_count);
-      m.valid.resize(max_count);
-      m.geo_residual.resize(max_count);
-      m.geo_weight.resize(max_count);
-      m.geo_valid.resize(max_count);
-      for (auto& col : m.geo_jac) col.assign(max_count, 0.0F);
-    }
+    if (m.abs_residual.size() < max_count) m.abs_residual.resize(max_count);
+    m.photometric_buffers.reserve(max_count, false);
+    m.geometric_buffers.reserve(max_count, true);
     m.has_ref = true;
   }
 
@@ -499,111 +503,6 @@ struct TrackerAccess {
     if (n.dot(P) > 0.0) n = -n;
     return -n.dot(P) > 0.2 * P.norm();  // not grazing: within ~78 deg of the viewing ray
   }
-
-  // Point-to-plane residuals (warp_jacobian.hpp) of the level's points with a normal, against
-  // the current depth level bilinearly interpolated where its 2x2 cell is one surface.
-  // Returns the number of valid residuals.
-  static int warp_geometric(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& dep,
-                            const SE3& T_cur_ref, float max_spread) {
-    if (m.depth_time_shift) return warp_geometric_shifted(m, L, dep, T_cur_ref, max_spread);
-    const kernels::PlanePointsView points{L.x.data(),       L.y.data(),          L.z.data(),
-                                          L.nx.data(),      L.ny.data(),         L.nz.data(),
-                                          L.n_dot_p.data(), L.has_normal.data(), L.count};
-    const kernels::LevelImage depth{dep.ptr<float>(),
-                                    static_cast<int>(dep.step1()),
-                                    dep.cols,
-                                    dep.rows,
-                                    L.fx,
-                                    L.fy,
-                                    L.cx,
-                                    L.cy};
-    float* const jac[6] = {m.geo_jac[0].data(), m.geo_jac[1].data(), m.geo_jac[2].data(),
-                           m.geo_jac[3].data(), m.geo_jac[4].data(), m.geo_jac[5].data()};
-    return kernels::warp_point_to_plane(points, depth, kernels::FloatPose::from(T_cur_ref),
-                                        max_spread, m.geo_residual.data(), m.geo_valid.data(), jac);
-  }
-
-  // The same with the depth map taken at another time than the image
-  // (compensate_depth_time_offset): each sample is read where the ray was then.
-  static int warp_geometric_shifted(DirectTracker::Impl& m, const ReferenceLevel& L,
-                                    const cv::Mat& dep, const SE3& T_cur_ref, float max_spread) {
-    const Eigen::Matrix3f R = T_cur_ref.rotation_matrix().cast<float>();
-    const Eigen::Vector3f t = T_cur_ref.translation().cast<float>();
-    const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
-    const auto umax = static_cast<float>(dep.cols - 1);
-    const auto vmax = static_cast<float>(dep.rows - 1);
-    const float* data = dep.ptr<float>();
-    const auto stride = static_cast<std::ptrdiff_t>(dep.step1());
-    const float spread = 1.0F + max_spread;
-    const bool shift = m.depth_time_shift;
-    const Eigen::Matrix3f Rs = m.T_rgb_depth.rotation_matrix().cast<float>();
-    const Eigen::Vector3f ts = m.T_rgb_depth.translation().cast<float>();
-    float* res = m.geo_residual.data();
-    std::uint8_t* val = m.geo_valid.data();
-    int count = 0;
-    for (int i = 0; i < L.count; ++i) {
-      val[i] = 0;
-      res[i] = 0.0F;
-      if (!L.has_normal[static_cast<std::size_t>(i)]) continue;
-      const Eigen::Vector3f P(L.x[static_cast<std::size_t>(i)], L.y[static_cast<std::size_t>(i)],
-                              L.z[static_cast<std::size_t>(i)]);
-      const Eigen::Vector3f X = R * P + t;
-      if (!(X.z() > 1e-3F)) continue;
-      float u = fx * X.x() / X.z() + cx;
-      float v = fy * X.y() / X.z() + cy;
-      if (shift) {  // where the ray was when the depth map was taken
-        const Eigen::Vector3f ray = Rs.transpose() * Eigen::Vector3f((u - cx) / fx, (v - cy) / fy, 1.0F);
-        if (!(ray.z() > 1e-6F)) continue;
-        u = fx * ray.x() / ray.z() + cx;
-        v = fy * ray.y() / ray.z() + cy;
-      }
-      if (!(u >= 0.0F && u < umax && v >= 0.0F && v < vmax)) continue;
-      const int u0 = static_cast<int>(u);
-      const int v0 = static_cast<int>(v);
-      const float* p = data + v0 * stride + u0;
-      const float z00 = p[0], z01 = p[1], z10 = p[stride], z11 = p[stride + 1];
-      if (!(z00 > 0.0F && z01 > 0.0F && z10 > 0.0F && z11 > 0.0F && z00 < 1e3F && z01 < 1e3F &&
-            z10 < 1e3F && z11 < 1e3F)) {
-        continue;
-      }
-      const float zmin = std::min(std::min(z00, z01), std::min(z10, z11));
-      const float zmax = std::max(std::max(z00, z01), std::max(z10, z11));
-      if (zmax > spread * zmin) continue;
-      const float a = u - static_cast<float>(u0);
-      const float b = v - static_cast<float>(v0);
-      const float z = (1.0F - b) * ((1.0F - a) * z00 + a * z01) + b * ((1.0F - a) * z10 + a * z11);
-      // Q_cur back-projected at (u, v); into the reference frame: R^T (Q_cur - t).
-      Eigen::Vector3f Q((u - cx) / fx * z, (v - cy) / fy * z, z);
-      if (shift) Q = Rs * Q + ts;
-      const Eigen::Vector3f Q_ref = R.transpose() * (Q - t);
-      const auto k = static_cast<std::size_t>(i);
-      const float nx = L.nx[k], ny = L.ny[k], nz = L.nz[k];
-      res[i] = nx * Q_ref.x() + ny * Q_ref.y() + nz * Q_ref.z() - L.n_dot_p[k];
-      // J_g = -[n, Q_ref x n] (point_to_plane_pose_jacobian), in place for the accumulation.
-      m.geo_jac[0][k] = -nx;
-      m.geo_jac[1][k] = -ny;
-      m.geo_jac[2][k] = -nz;
-      m.geo_jac[3][k] = -(Q_ref.y() * nz - Q_ref.z() * ny);
-      m.geo_jac[4][k] = -(Q_ref.z() * nx - Q_ref.x() * nz);
-      m.geo_jac[5][k] = -(Q_ref.x() * ny - Q_ref.y() * nx);
-      val[i] = 1;
-      ++count;
-    }
-    return count;
-  }
-
-  // Warp + sample (`sampling`) + residual for every reference point of level L under T_cur_ref.
-  // Returns the number of points that land inside the image.
-  static int warp_residuals(DirectTracker::Impl& m, const ReferenceLevel& L, const cv::Mat& cur,
-                            const SE3& T_cur_ref, float alpha, float beta,
-                            kernels::Sampling sampling) {
-    const kernels::PointsView points{L.x.data(), L.y.data(), L.z.data(), L.intensity.data(),
-                                     L.count};
-    const kernels::LevelImage image{cur.ptr<float>(), static_cast<int>(cur.step1()), cur.cols,
-                                    cur.rows, L.fx, L.fy, L.cx, L.cy};
-    return kernels::warp_residuals(points, image, kernels::FloatPose::from(T_cur_ref), alpha, beta,
-                                   m.residual.data(), m.valid.data(), sampling);
-  }
 };
 
 namespace {
@@ -642,33 +541,6 @@ void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrack
   if (o.use_depth_residual) m.ensure_depth_pyramid(o);
 }
 
-struct LevelStats {
-  double sigma = 0.0;
-  int inliers = 0;
-  int geo_inliers = 0;
-  int inside = 0;
-  Matrix8d H = Matrix8d::Zero();
-};
-
-}  // namespace
-
-namespace {
-
-void accumulate_normal_equations(const ReferenceLevel& L, const float* w, const float* r,
-                                 const std::array<std::vector<float>, 6>& geo_jac,
-                                 const float* w_geo, const float* r_geo, Matrix8d& H, Vector8d& g) {
-  H.setZero();
-  g.setZero();
-  const float* J[8];
-  for (std::size_t c = 0; c < 8; ++c) J[c] = L.jac[c].data();
-  kernels::accumulate_normal_equations<8>(J, L.count, w, r, H, g);
-  if (w_geo != nullptr) {
-    const float* Jg[6];
-    for (std::size_t c = 0; c < 6; ++c) Jg[c] = geo_jac[c].data();
-    kernels::accumulate_normal_equations<6>(Jg, L.count, w_geo, r_geo, H, g);
-  }
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
@@ -689,31 +561,15 @@ struct AlignTerms {
 struct AlignOutcome {
   SE3 T_cur_ref;
   double alpha = 1.0, beta = 0.0;
-  TrackResult result;  // health fields only
+  TrackResult result;              // health fields only
   double max_level_jump_px = 0.0;  // largest move of a level from its coarser one, in coarser px
 };
 
 }  // namespace
 
 // ---------------------------------------------------------------------------------------
-// One pyramid level of the alignment: robust inverse-compositional Gauss-Newton.
+// One pyramid level of the alignment: its residual terms and their solver (level_solver.hpp).
 namespace {
-
-// The estimate carried from level to level: the pose and the gain/bias illumination model
-// (thesis 3.9).
-struct Estimate {
-  SE3 T_cur_ref;
-  double alpha = 1.0, beta = 0.0;
-};
-
-enum class LevelEnd {
-  kConverged,       ///< the step (or its change) fell below tolerance, or the cost rose
-  kIterationsUsed,  ///< max iterations, or a step left the image and was undone
-  kFailed,          ///< no overlap or singular normal equations: the result says which
-};
-
-// What a step's robust cost says about it (DirectTrackerOptions::stop_on_cost_increase).
-enum class StepCheck { kAccepted, kHalved, kRejected };
 
 // The level whose photometric figures the health checks judge (AlignTerms::fallback_checks).
 struct HealthLevel {
@@ -722,267 +578,46 @@ struct HealthLevel {
   bool passed = false;
 };
 
-// Gauss-Newton on one level (thesis 3.6-3.10): photometric residuals with gain/bias and, when
-// `geometric`, point-to-plane residuals, each with its own robust Tukey scale (MAD, thesis eq.
-// 3.40) frozen once it settles; weights carry 1/sigma^2 so that the two kinds combine as
-// normalised residuals and H^-1 is the covariance. A step that raises the robust cost is halved
-// (up to 3 times: far from the optimum Gauss-Newton overshoots); if it still does, the level
-// ends at the previous estimate (the noise floor is reached).
-class LevelSolver {
+// The residual terms of one level: the photometric one always and, with `geometric`, the
+// point-to-plane one where the level has enough points with a normal.
+class LevelTerms {
  public:
-  LevelSolver(DirectTracker::Impl& m, const DirectTrackerOptions& o, int level, bool geometric,
-              Estimate& estimate, TrackResult& result)
-      : m_(m),
-        o_(o),
-        L_(m.ref[static_cast<std::size_t>(level)]),
-        level_(level),
-        finest_(level == o.finest_level),
-        geo_(geometric && o.depth_residual_weight > 0.0 && L_.normal_count >= o.min_points),
-        cur_(m.pyramid.level(level)),
-        cur_depth_(geo_ ? &m.depth_pyramid.level(level) : nullptr),
-        params_(o.estimate_gain_bias ? 8 : 6),
-        c_(static_cast<float>(o.tukey_c)),
-        est_(estimate),
-        res_(result),
-        prev_(estimate) {}
-
-  LevelEnd run() {
-    pad_buffers();
-    const int max_iter = (level_ == 0) ? o_.max_iterations_finest : o_.max_iterations_coarse;
-    const kernels::Sampling sampling = level_sampling(o_, finest_);
-    for (int it = 0; it < max_iter; ++it) {
-      evaluate(sampling);
-      if (inside_ < o_.min_points) {
-        if (it == 0) return fail_no_overlap();
-        restore_previous();  // the last step left the image: undo it and stop this level
-        return LevelEnd::kIterationsUsed;
-      }
-      if (it > 0 && o_.stop_on_cost_increase) {
-        const StepCheck check = check_step();
-        if (check == StepCheck::kHalved) continue;
-        if (check == StepCheck::kRejected) {
-          restore_previous();
-          return LevelEnd::kConverged;
-        }
-      }
-      halvings_ = 0;
-      update_scales(it);
-      const double cost = weigh();
-      if (!solve_and_step(cost)) return LevelEnd::kFailed;
-      if (step_converged()) return LevelEnd::kConverged;
+  LevelTerms(DirectTracker::Impl& m, const DirectTrackerOptions& o, int level, bool geometric)
+      : photometric_(m.ref[static_cast<std::size_t>(level)], m.pyramid.level(level),
+                     level_sampling(o, level == o.finest_level), m.photometric_buffers,
+                     static_cast<float>(o.tukey_c),
+                     {o.estimate_gain_bias ? 8 : 6, o.min_sigma, o.sigma_freeze_change, 0.0}) {
+    const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
+    list_[0] = &photometric_;
+    if (geometric && L.normal_count >= o.min_points) {
+      // The geometric scale is not below the sensor's depth noise at the level's median depth:
+      // on exact (rendered) or very clean depth the MAD of a misaligned pair counts the points
+      // whose residual the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2
+      // weights then outvote the photometric residuals in steps that raise the robust cost. It
+      // freezes at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
+      const double floor =
+          std::max(o.min_depth_sigma_m, o.depth_noise_per_m * L.median_depth * L.median_depth);
+      geometric_.emplace(L, m.depth_pyramid.level(level),
+                         static_cast<float>(o.depth_residual_max_relative_spread),
+                         m.depth_time_shift ? &m.T_rgb_depth : nullptr, m.geometric_buffers,
+                         static_cast<float>(o.tukey_c), ScaleRule{6, floor, 0.0, 5e-5});
+      list_[1] = &*geometric_;
+      size_ = 2;
     }
-    return LevelEnd::kIterationsUsed;
+    m.photometric_buffers.pad(L.count);
+    m.geometric_buffers.pad(L.count);
   }
 
-  [[nodiscard]] const LevelStats& stats() const { return stats_; }
-  [[nodiscard]] bool geometric() const { return geo_; }
-  [[nodiscard]] double geo_sigma() const { return geo_sigma_; }
-  [[nodiscard]] int geo_count() const { return geo_count_; }
+  [[nodiscard]] std::span<ResidualTerm* const> list() const { return {list_.data(), size_}; }
+  [[nodiscard]] const PointToPlaneTerm* geometric() const {
+    return geometric_ ? &*geometric_ : nullptr;
+  }
 
  private:
-  // The SIMD kernels read whole lanes: the padding past the last point weighs nothing.
-  void pad_buffers() {
-    const int n = L_.count;
-    for (int i = n; i < pad_to_lanes(n); ++i) {
-      const auto k = static_cast<std::size_t>(i);
-      m_.weight[k] = 0.0F;
-      m_.residual[k] = 0.0F;
-      m_.geo_weight[k] = 0.0F;
-      m_.geo_residual[k] = 0.0F;
-    }
-  }
-
-  void evaluate(kernels::Sampling sampling) {
-    inside_ =
-        TrackerAccess::warp_residuals(m_, L_, cur_, est_.T_cur_ref, static_cast<float>(est_.alpha),
-                                      static_cast<float>(est_.beta), sampling);
-    if (geo_) {
-      geo_count_ =
-          TrackerAccess::warp_geometric(m_, L_, *cur_depth_, est_.T_cur_ref,
-                                        static_cast<float>(o_.depth_residual_max_relative_spread));
-    }
-    ++res_.iterations;
-  }
-
-  LevelEnd fail_no_overlap() {
-    res_.failure = TrackFailure::kNoOverlap;
-    res_.failure_detail = std::to_string(inside_) + " of " + std::to_string(L_.count) +
-                          " reference points land in the image on level " + std::to_string(level_);
-    res_.overlap = static_cast<double>(inside_) / L_.count;
-    return LevelEnd::kFailed;
-  }
-
-  // Back to the estimate before the last step; `stats_` still describe it (they are updated
-  // only after a step is accepted).
-  void restore_previous() {
-    est_ = prev_;
-    inside_ = stats_.inside;
-  }
-
-  // Geometric cost: points with a normal whose sample is missing cost the maximum, like
-  // photometric points outside the image; points without a normal do not take part.
-  [[nodiscard]] double geo_cost(float inv_sg) const {
-    const float max_cost = c_ * c_ / 6.0F;
-    double cost = 0.0;
-    const float* rg = m_.geo_residual.data();
-    const std::uint8_t* vg = m_.geo_valid.data();
-    for (int i = 0; i < L_.count; ++i) {
-      if (vg[i]) {
-        cost += static_cast<double>(tukey_cost(rg[i] * inv_sg, c_));
-      } else if (L_.has_normal[static_cast<std::size_t>(i)]) {
-        cost += static_cast<double>(max_cost);
-      }
-    }
-    return static_cast<double>(static_cast<float>(o_.depth_residual_weight)) * cost;
-  }
-
-  // The robust cost at the scales the step was computed with.
-  StepCheck check_step() {
-    double cost = kernels::tukey_cost_sum(m_.residual.data(), m_.valid.data(), L_.count,
-                                          static_cast<float>(1.0 / sigma_), c_);
-    if (geo_) cost += geo_cost(static_cast<float>(1.0 / geo_sigma_));
-    if (!(cost > prev_cost_)) return StepCheck::kAccepted;  // a NaN cost is not a rise
-    if (halvings_ < 3 && last_step_.head(params_).norm() > 10.0 * o_.update_norm_tolerance) {
-      ++halvings_;
-      last_step_ *= 0.5;
-      apply_step(last_step_);
-      return StepCheck::kHalved;
-    }
-    return StepCheck::kRejected;
-  }
-
-  // Robust scales (thesis eq. 3.40), each frozen once it settles (thesis 3.10).
-  void update_scales(int it) {
-    const int n = L_.count;
-    if (!sigma_frozen_) {
-      const kernels::AbsMedian med = kernels::abs_median(m_.residual.data(), m_.valid.data(), n,
-                                                         median_hint_, m_.abs_residual.data());
-      median_hint_ = med.median;
-      double s = robust_sigma_from_median(med.median, med.valid, params_);
-      s = std::max(s, o_.min_sigma);
-      if (it > 0 && std::fabs(s - sigma_) < o_.sigma_freeze_change) sigma_frozen_ = true;
-      sigma_ = s;
-    }
-    if (geo_ && !geo_sigma_frozen_) {
-      const kernels::AbsMedian med = kernels::abs_median(
-          m_.geo_residual.data(), m_.geo_valid.data(), n, geo_median_hint_, m_.abs_residual.data());
-      geo_median_hint_ = med.median;
-      double s = robust_sigma_from_median(med.median, med.valid, 6);
-      // Not below the sensor's depth noise at this level's median depth: on exact (rendered) or
-      // very clean depth the MAD of a misaligned pair counts the points whose residual the
-      // motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2 weights then
-      // outvote the photometric residuals in steps that raise the robust cost.
-      s = std::max(
-          {s, o_.min_depth_sigma_m, o_.depth_noise_per_m * L_.median_depth * L_.median_depth});
-      // Frozen at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
-      if (it > 0 && std::fabs(s - geo_sigma_) < 5e-5 * s) geo_sigma_frozen_ = true;
-      geo_sigma_ = s;
-    }
-  }
-
-  // Tukey weights (times 1/sigma^2) of both kinds; returns the robust cost.
-  double weigh() {
-    const kernels::WeightSums sums =
-        kernels::tukey_weights(m_.residual.data(), m_.valid.data(), L_.count,
-                               static_cast<float>(1.0 / sigma_), c_, m_.weight.data());
-    double cost = sums.cost;
-    inliers_ = sums.inliers;
-    if (geo_) {
-      const auto inv_sg = static_cast<float>(1.0 / geo_sigma_);
-      const float scale = static_cast<float>(o_.depth_residual_weight) * inv_sg * inv_sg;
-      const float* rg = m_.geo_residual.data();
-      const std::uint8_t* vg = m_.geo_valid.data();
-      float* wg = m_.geo_weight.data();
-      int gin = 0;
-      for (int i = 0; i < L_.count; ++i) {
-        const float u = rg[i] * inv_sg;
-        wg[i] = vg[i] ? tukey_weight(u, c_) * scale : 0.0F;
-        gin += (vg[i] && std::fabs(u) < c_) ? 1 : 0;
-      }
-      stats_.geo_inliers = gin;
-      cost += geo_cost(inv_sg);
-    }
-    return cost;
-  }
-
-  // Solves the normal equations and takes the step; false (the result says why) when they are
-  // singular.
-  bool solve_and_step(double cost) {
-    Matrix8d H;
-    Vector8d g;
-    accumulate_normal_equations(L_, m_.weight.data(), m_.residual.data(), m_.geo_jac,
-                                geo_ ? m_.geo_weight.data() : nullptr, m_.geo_residual.data(), H,
-                                g);
-    stats_.sigma = sigma_;
-    stats_.inliers = inliers_;
-    stats_.inside = inside_;
-    stats_.H = H;
-
-    Vector8d delta = Vector8d::Zero();
-    if (o_.estimate_gain_bias) {
-      delta = H.ldlt().solve(g);
-    } else {
-      delta.head<6>() = H.topLeftCorner<6, 6>().ldlt().solve(g.head<6>());
-    }
-    if (!delta.allFinite() || (o_.estimate_gain_bias && std::fabs(1.0 + delta(6)) < 1e-3)) {
-      res_.failure = TrackFailure::kNumerical;
-      res_.failure_detail = "singular normal equations on level " + std::to_string(level_);
-      return false;
-    }
-    prev_cost_ = cost;
-    prev_ = est_;
-    last_step_ = delta;
-    apply_step(delta);
-    return true;
-  }
-
-  // Converged when the step is tiny or no longer changes (it oscillates at the noise floor).
-  bool step_converged() {
-    const double step = last_step_.head(params_).norm();
-    if (step < o_.update_norm_tolerance ||
-        (prev_step_norm_ >= 0.0 &&
-         std::fabs(step - prev_step_norm_) < o_.update_change_tolerance)) {
-      return true;
-    }
-    prev_step_norm_ = step;
-    return false;
-  }
-
-  // Inverse-compositional update of `prev_` by d (warp_jacobian.hpp).
-  void apply_step(const Vector8d& d) {
-    est_.T_cur_ref = prev_.T_cur_ref * SE3::exp(-d.head<6>());
-    est_.alpha = prev_.alpha;
-    est_.beta = prev_.beta;
-    if (o_.estimate_gain_bias) {
-      const double eta = 1.0 + d(6);
-      est_.alpha = prev_.alpha / eta;
-      est_.beta = (prev_.beta - d(7)) / eta;
-    }
-  }
-
-  DirectTracker::Impl& m_;
-  const DirectTrackerOptions& o_;
-  const ReferenceLevel& L_;
-  const int level_;
-  const bool finest_;
-  const bool geo_;
-  const cv::Mat& cur_;
-  const cv::Mat* cur_depth_;  // only with the geometric residual
-  const int params_;
-  const float c_;
-  Estimate& est_;
-  TrackResult& res_;
-
-  Estimate prev_;  // the estimate before the last step
-  Vector8d last_step_ = Vector8d::Zero();
-  LevelStats stats_;
-  double sigma_ = 0.0, geo_sigma_ = 0.0;
-  bool sigma_frozen_ = false, geo_sigma_frozen_ = false;
-  // Last iteration's median |r| of each kind: where to look for this iteration's.
-  float median_hint_ = 0.0F, geo_median_hint_ = 0.0F;
-  double prev_cost_ = 0.0;
-  double prev_step_norm_ = -1.0;
-  int inside_ = 0, inliers_ = 0, geo_count_ = 0, halvings_ = 0;
+  PhotometricTerm photometric_;
+  std::optional<PointToPlaneTerm> geometric_;
+  std::array<ResidualTerm*, 2> list_{};
+  std::size_t size_ = 1;
 };
 
 // How far a level moved the coarser level's estimate, in pixels of the coarser level.
@@ -993,17 +628,16 @@ double level_jump_px(const ReferenceLevel& coarser, const SE3& T_level_start, co
 }
 
 // The finest level's figures, judged on `health`'s level, and the pose covariance.
-void finish_finest_level(const LevelSolver& solver, LevelEnd end, const HealthLevel& health,
-                         const ReferenceLevel& L, int params, TrackResult& res) {
-  const LevelStats& stats = solver.stats();
-  const bool geo = solver.geometric();
+void finish_finest_level(const LevelStats& stats, const PointToPlaneTerm* geo, LevelEnd end,
+                         const HealthLevel& health, const ReferenceLevel& L, int params,
+                         TrackResult& res) {
   res.converged = end == LevelEnd::kConverged;
   res.sigma = health.sigma;
   res.photometric_level = health.level;
-  res.depth_sigma = geo ? solver.geo_sigma() : 0.0;
-  res.depth_points = geo ? solver.geo_count() : 0;
+  res.depth_sigma = geo ? geo->sigma() : 0.0;
+  res.depth_points = geo ? geo->valid() : 0;
   res.depth_inlier_ratio =
-      geo ? static_cast<double>(stats.geo_inliers) / std::max(1, L.normal_count) : 0.0;
+      geo ? static_cast<double>(geo->inliers()) / std::max(1, L.normal_count) : 0.0;
   res.points = L.count;
   res.overlap = static_cast<double>(stats.inside) / L.count;
   res.inlier_ratio = static_cast<double>(health.inliers) / health.points;
@@ -1130,7 +764,9 @@ struct AlignRunner {
         return out;
       }
       const SE3 T_level_start = est.T_cur_ref;
-      LevelSolver solver(m, o, l, terms.geometric, est, res);
+      const LevelTerms level_terms(m, o, l, terms.geometric);
+      LevelSolver solver(level_terms.list(), SolverRules::for_level(o, l), l, L.count,
+                         m.abs_residual.data(), est, res);
       const LevelEnd end = solver.run();
       if (end == LevelEnd::kFailed) {
         out.T_cur_ref = est.T_cur_ref;
@@ -1153,7 +789,10 @@ struct AlignRunner {
         health.inliers = stats.inliers;
         health.points = L.count;
       }
-      if (finest) finish_finest_level(solver, end, health, L, o.estimate_gain_bias ? 8 : 6, res);
+      if (finest) {
+        finish_finest_level(stats, level_terms.geometric(), end, health, L,
+                            o.estimate_gain_bias ? 8 : 6, res);
+      }
     }
     out.T_cur_ref = est.T_cur_ref;
     out.alpha = est.alpha;
@@ -1422,8 +1061,7 @@ TrackResult DirectTracker::align_frames(const Frame& reference, const Frame& cur
   Impl& m = *impl_;
   reset();
   for (const Frame* f : {&reference, &current}) {
-    std::string bad =
-        check_input_kind(disparity_input_, std::is_same_v<Frame, DisparityFrame>);
+    std::string bad = check_input_kind(disparity_input_, std::is_same_v<Frame, DisparityFrame>);
     if (bad.empty()) bad = check_frame(*f, camera_);
     if (!bad.empty()) return invalid_input(current, bad, SE3());
   }

@@ -43,9 +43,6 @@ void DirectTrackerOptions::validate() const {
   finite_pos("tukey_c", tukey_c);
   if (!(sigma_freeze_change >= 0.0)) fail("sigma_freeze_change", "must be >= 0");
   finite_pos("min_sigma", min_sigma);
-  if (!(std::isfinite(depth_residual_weight) && depth_residual_weight >= 0.0)) {
-    fail("depth_residual_weight", "must be >= 0 and finite");
-  }
   finite_pos("min_depth_sigma_m", min_depth_sigma_m);
   if (!(std::isfinite(depth_noise_per_m) && depth_noise_per_m >= 0.0)) {
     fail("depth_noise_per_m", "must be >= 0 and finite");

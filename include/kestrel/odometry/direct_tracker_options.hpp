@@ -42,9 +42,6 @@ struct DirectTrackerOptions {
   // RGB-D cameras", IROS 2013): point-to-plane distance between each reference point and
   // the current frame's depth at its warped pixel, jointly with the photometric residual ---
   bool use_depth_residual = false;
-  /// Relative weight of the geometric residuals; both kinds are first divided by their own
-  /// robust sigma, so 1 weighs a typical depth residual like a typical photometric one.
-  double depth_residual_weight = 1.0;
   /// Floor of the geometric robust sigma (m): below ~the TUM PNG's quantisation it is noise
   /// of the estimate, not of the sensor.
   double min_depth_sigma_m = 5e-4;
@@ -169,7 +166,6 @@ struct DirectTrackerOptions {
     v("min_sigma", min_sigma);
     v("estimate_gain_bias", estimate_gain_bias);
     v("use_depth_residual", use_depth_residual);
-    v("depth_residual_weight", depth_residual_weight);
     v("min_depth_sigma_m", min_depth_sigma_m);
     v("depth_noise_per_m", depth_noise_per_m);
     v("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
