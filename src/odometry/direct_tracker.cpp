@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <limits>
 #include <type_traits>
 #include <cmath>
 #include <cstdlib>
@@ -1183,6 +1184,8 @@ TrackResult invalid_input(const Frame& frame, std::string detail, const SE3& T_w
   result.failure = TrackFailure::kInvalidInput;
   result.failure_detail = std::move(detail);
   result.T_world_cam = T_world_cam;
+  // Nothing was aligned: no ratio was measured.
+  result.inlier_ratio = result.overlap = std::numeric_limits<double>::quiet_NaN();
   return result;
 }
 
@@ -1290,6 +1293,8 @@ class TrackingStep {
     result.points = m_.ref[static_cast<std::size_t>(o_.finest_level)].count;
     result.covariance.setZero();
     if (result.points < o_.min_points) {
+      // No alignment ran: the ratios of a frame that cannot even be a reference are unknown.
+      result.inlier_ratio = result.overlap = std::numeric_limits<double>::quiet_NaN();
       result.failure = TrackFailure::kTooFewPoints;
       result.failure_detail = "first frame has " + std::to_string(result.points) +
                               " usable points: the next frame starts again";
