@@ -1,8 +1,6 @@
 // `kestrel capture`: lists the V4L2 video devices and their formats, records a UVC stereo camera
 // that packs two Bayer sensors into YUYV frames to an EuRoC folder, or decodes one raw packed
 // frame offline (to find the byte order and Bayer phase of a new camera). docs/driver.md.
-#include <atomic>
-#include <csignal>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -19,6 +17,7 @@
 #include "kestrel/driver/stereo_recorder.hpp"
 #include "kestrel/driver/v4l2_camera.hpp"
 #include "kestrel/io/output_guard.hpp"
+#include "interrupt.hpp"
 #include "progress.hpp"
 
 namespace kestrel::cli {
@@ -49,21 +48,6 @@ struct CaptureArgs {
   bool raw = false;
   std::string decode_file;
   bool force = false;
-};
-
-// Ctrl-C ends a recording cleanly (files finished); a lock-free atomic is signal-safe.
-std::atomic<bool> g_interrupted{false};
-extern "C" void on_interrupt(int /*signal*/) { g_interrupted.store(true); }
-
-class InterruptScope {
- public:
-  InterruptScope() : previous_(std::signal(SIGINT, on_interrupt)) { g_interrupted.store(false); }
-  ~InterruptScope() { std::signal(SIGINT, previous_); }
-  InterruptScope(const InterruptScope&) = delete;
-  InterruptScope& operator=(const InterruptScope&) = delete;
-
- private:
-  void (*previous_)(int);
 };
 
 driver::StereoDecoderOptions decoder_options(const CaptureArgs& a) {
@@ -124,6 +108,10 @@ void list_devices(const CaptureArgs& a) {
 /// Decodes one packed frame from a file (e.g. raw/<t_ns>.bin of `capture --raw`).
 void decode_file(const CaptureArgs& a) {
   if (a.out.empty()) throw InputError("capture: --decode-file needs --out");
+  if (std::filesystem::is_directory(a.decode_file)) {
+    throw InputError(a.decode_file + ": is a folder; --decode-file takes one raw frame file "
+                     "(raw/<t_ns>.bin of `capture --raw`)");
+  }
   const driver::StereoFrameDecoder decoder(decoder_options(a));
   const driver::ViewKind kind = view_kind(a);
   std::ifstream in(a.decode_file, std::ios::binary);
@@ -145,7 +133,10 @@ void decode_file(const CaptureArgs& a) {
     std::cout << "  note:    the file holds " << bytes.size() << " bytes; decoded its first "
               << health.expected_bytes << "\n";
   }
-  io::claim_output_dir(a.out, StereoRecorder::kCommand, a.force);
+  io::OutputGuard(StereoRecorder::kCommand, a.force)
+      .input("--decode-file", a.decode_file)
+      .input("--decoder-options", a.decoder_options)
+      .folder("--out", a.out);
   cv::Mat view;
   for (const auto& [m, name] :
        {std::pair{&mosaic.left, "left.png"}, {&mosaic.right, "right.png"}}) {
@@ -202,17 +193,22 @@ void record(const CaptureArgs& a) {
       << "  output:   " << a.out << "\n";
   std::cout << log.str() << std::flush;
 
+  // The folder is claimed here (the recorder claims it again, as its own).
+  io::OutputGuard(StereoRecorder::kCommand, a.force)
+      .input("--decoder-options", a.decoder_options)
+      .folder("--out", a.out);
   StereoRecorder recorder(a.out, decoder.options(), ro, a.force);
   const fs::path info = fs::path(a.out) / "capture.txt";
   io::check_can_write_file(info, StereoRecorder::kCommand, true);
   std::ofstream info_out(info);
   info_out << io::provenance_line(StereoRecorder::kCommand) << "\n" << log.str() << std::flush;
 
-  const InterruptScope interrupt_scope;
+  // Ctrl-C ends a recording cleanly (files finished).
+  const InterruptScope interrupt;
   ProgressBar progress("capture", a.frames);
   driver::CaptureHooks hooks;
   hooks.log = &std::cerr;
-  hooks.interrupt = &g_interrupted;
+  hooks.interrupt = interrupt.flag();
   hooks.on_frame = [&](const driver::CaptureReport& r) { progress.update(r.frames); };
   const driver::CaptureReport report = driver::capture_stereo(
       camera, format, decoder, limits,
@@ -228,6 +224,11 @@ void record(const CaptureArgs& a) {
     throw InputError("capture: " + std::string(driver::capture_stop_name(report.stop)) + " after " +
                      std::to_string(report.frames) + " frames: " + report.stop_message +
                      "; the frames recorded so far are in " + a.out);
+  }
+  // Without --frames or --duration, Ctrl-C is the asked end; with them it cut the run short.
+  if (interrupt.requested() && (a.frames > 0 || a.duration_s > 0.0)) {
+    throw_interrupted(interrupt, "after " + std::to_string(report.frames) +
+                                     " stereo frames; wrote them to " + a.out);
   }
   std::cout << "wrote " << report.frames << " stereo frames to " << a.out << "\n";
 }

@@ -21,6 +21,7 @@
 #include "kestrel/gpu/stereo_matcher.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
+#include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/pfm.hpp"
 #include "kestrel/io/yaml_file.hpp"
 #include "kestrel/lab/stereo_evaluation.hpp"
@@ -31,6 +32,8 @@ namespace kestrel::cli {
 namespace {
 namespace fs = std::filesystem;
 
+constexpr const char* kDisparityCommand = "disparity";
+
 struct DisparityArgs {
   fs::path left, right, calib, options_file, out, depth_out, color_out;
   sensor::BlockMatcherOptions options;
@@ -40,17 +43,6 @@ struct DisparityArgs {
   bool no_subpixel = false;
   bool force = false;
 };
-
-void check_can_write_image(const fs::path& path, const char* magic4, bool force) {
-  if (force || !fs::exists(path)) return;
-  std::ifstream in(path, std::ios::binary);
-  char magic[4] = {};
-  in.read(magic, 4);
-  if (std::string(magic, 4).find(magic4) == std::string::npos) {
-    throw InputError(path.string() + ": exists and is not a " + magic4 +
-                     " image; not overwritten (use --force)");
-  }
-}
 
 /// What --calib names: a rectified rig, or a raw pair to rectify first.
 struct Calibration {
@@ -121,17 +113,15 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
     args.depth_out.replace_extension(".depth.png");
   }
   if (!calib.rig && !args.depth_out.empty()) throw InputError("--depth needs --calib");
-  if (fs::exists(args.out) && !args.force) {
-    std::ifstream in(args.out, std::ios::binary);
-    char m[2] = {};
-    in.read(m, 2);
-    if (!(m[0] == 'P' && (m[1] == 'f' || m[1] == 'F'))) {
-      throw InputError(args.out.string() + ": exists and is not a PFM file; not overwritten (use --force)");
-    }
-  }
-  if (!args.depth_out.empty()) check_can_write_image(args.depth_out, "PNG", args.force);
-  if (!args.color_out.empty()) check_can_write_image(args.color_out, "PNG", args.force);
-
+  // Every output before any work: none may replace an input or a file Kestrel did not write.
+  io::OutputGuard(kDisparityCommand, args.force)
+      .input("--left", args.left)
+      .input("--right", args.right)
+      .input("--calib", args.calib)
+      .input("--options", args.options_file)
+      .binary_file("--out", args.out)
+      .binary_file("--depth", args.depth_out)
+      .binary_file("--color", args.color_out);
   const cv::Mat left = io::read_gray_image(args.left);
   const cv::Mat right = io::read_gray_image(args.right);
   std::cerr << "kestrel disparity: " << args.options.describe() << "\n";
@@ -159,7 +149,6 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
         depth16.at<std::uint16_t>(y, x) = units > 65535.0 ? 0 : static_cast<std::uint16_t>(units);
       }
     }
-    if (args.depth_out.has_parent_path()) fs::create_directories(args.depth_out.parent_path());
     if (!cv::imwrite(args.depth_out.string(), depth16)) throw InputError(args.depth_out.string() + ": cannot write");
     std::cout << "wrote " << args.depth_out.string() << " (16-bit depth, 5000 units per metre, 0 = none)\n";
   }
@@ -208,7 +197,7 @@ void add_disparity_command(CLI::App& app) {
   cmd->add_option("--out", args->out, "disparity PFM")->required();
   cmd->add_option("--depth", args->depth_out, "depth PNG (default with --calib: OUT with .depth.png)");
   cmd->add_option("--color", args->color_out, "false-colour PNG of the disparity");
-  cmd->add_flag("--force", args->force, "overwrite files of another kind");
+  cmd->add_flag("--force", args->force, "overwrite existing output files (images carry no mark of what wrote them)");
   cmd->callback([args, cmd] { run_disparity(*args, *cmd); });
 }
 

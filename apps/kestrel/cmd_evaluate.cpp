@@ -54,7 +54,10 @@ void run_evaluate(const EvaluateArgs& args) {
                      io::format_double(args.offset_s));
   }
   // Claim the output folder before the work, so that a refusal comes at once.
-  if (!args.plot_dir.empty()) io::claim_output_dir(args.plot_dir, kEvaluateCommand, args.force);
+  io::OutputGuard(kEvaluateCommand, args.force)
+      .input("--gt", args.gt_path)
+      .input("--est", args.est_path)
+      .folder("--plot", args.plot_dir);
 
   const Trajectory gt = load(args.gt_path, "ground truth");
   Trajectory est = load(args.est_path, "estimate");

@@ -2,6 +2,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "commands.hpp"
@@ -11,6 +12,7 @@
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/sim/scenes.hpp"
+#include "interrupt.hpp"
 #include "option_checks.hpp"
 #include "progress.hpp"
 
@@ -78,16 +80,24 @@ void run_fly(const FlyArgs& a) {
   if (options.vo_off_at_s >= duration) {
     throw InputError("fly: --vo-off-at is after the end of the flight");
   }
-  io::claim_output_dir(a.out, "fly", a.force);
+  io::OutputGuard("fly", a.force)
+      .input("--vehicle", a.vehicle_yaml)
+      .input("--controller", a.controller_yaml)
+      .input("--imu", a.imu_yaml)
+      .input("--safety", a.safety_yaml)
+      .input("--tracker", a.tracker_yaml)
+      .input("--matcher", a.matcher_yaml)
+      .folder("--out", a.out);
 
   flight::FlightSimulation simulation(std::move(scenario), options);
   std::cerr << "kestrel fly: scenario " << a.scenario << " in scene '" << probe.name() << "', "
             << duration << " s, seed " << a.seed << "\n  vision: "
             << options.vision.describe() << "\n";
+  const InterruptScope interrupt;  // Ctrl-C: the logs of the flight so far are written
   ProgressBar bar("flying (simulated s)", static_cast<std::size_t>(duration));
-  const flight::FlightResult result = simulation.run(duration, [&](const flight::FlightSample& s) {
-    bar.update(static_cast<std::size_t>(s.t_s));
-  });
+  const flight::FlightResult result = simulation.run(
+      duration, [&](const flight::FlightSample& s) { bar.update(static_cast<std::size_t>(s.t_s)); },
+      interrupt.flag());
   bar.finish();
 
   const auto logs = flight::write_flight_logs(a.out, result);
@@ -104,6 +114,12 @@ void run_fly(const FlyArgs& a) {
   for (const auto& p : logs) std::cout << "  log:  " << p.string() << "\n";
   for (const auto& p : plots) std::cout << "  plot: " << p.string() << "\n";
   std::cout << flight::flight_summary_line(result) << std::endl;
+  if (result.interrupted) {
+    std::ostringstream what;
+    what << "after " << std::setprecision(3) << result.duration_s << " of " << duration
+         << " simulated s; wrote " << logs.size() + plots.size() << " files to " << a.out;
+    throw_interrupted(interrupt, what.str());
+  }
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "kestrel/io/text_lines.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/yaml_file.hpp"
+#include "interrupt.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -154,8 +155,12 @@ void run_fuse(const FuseArgs& a) {
   if (!a.vo_frames_path.empty() && !a.vo_cov_path.empty()) {
     throw InputError("--vo-frames and --vo-cov exclude each other (the log has the covariances)");
   }
-  io::check_can_write_file(a.out_path, kFuseCommand, a.force);
-  if (!a.states_path.empty()) io::check_can_write_file(a.states_path, kFuseCommand, a.force);
+  io::OutputGuard(kFuseCommand, a.force)
+      .input("--imu", a.imu_path).input("--vo", a.vo_path).input("--vo-cov", a.vo_cov_path)
+      .input("--vo-frames", a.vo_frames_path).input("--calib", a.calib_path)
+      .input("--camera-calib", a.camera_calib_path).input("--options", a.options_path)
+      .input("--init", a.init_path)
+      .text_file("--out", a.out_path).text_file("--states", a.states_path);
   if (!(a.vo_sigma_p_m > 0.0) || !(a.vo_sigma_rot_deg > 0.0)) {
     throw InputError("--vo-sigma-pos and --vo-sigma-rot-deg must be positive");
   }
@@ -253,13 +258,23 @@ void run_fuse(const FuseArgs& a) {
   io::ImuCsvReader reader(a.imu_path);
   io::ImuSample s;
   std::size_t mi = 0;
-  while (reader.next(s)) {
+  const InterruptScope interrupt;  // Ctrl-C: the poses fused so far are written
+  while (!interrupt.requested() && reader.next(s)) {
     while (mi < meas.size() && meas[mi].t_ns <= s.t_ns) engine.add_relative_pose(meas[mi++]);
     engine.add_imu(s);
     consume(engine.poll(a.imu_rate));
   }
-  while (mi < meas.size()) engine.add_relative_pose(meas[mi++]);
+  const bool interrupted = interrupt.requested();
+  while (!interrupted && mi < meas.size()) engine.add_relative_pose(meas[mi++]);
   consume(engine.flush(a.imu_rate));
+  if (interrupted) {
+    io::write_tum_trajectory(a.out_path, fused, kFuseCommand, a.force);
+    throw_interrupted(interrupt, "after " + std::to_string(mi) + " of " +
+                                     std::to_string(meas.size()) + " odometry measurements; wrote " +
+                                     a.out_path.string() + " (" + std::to_string(fused.size()) +
+                                     " poses)" + (a.states_path.empty() ? "" : " and " +
+                                     a.states_path.string()));
+  }
   if (!engine.initialized()) {
     throw InputError(a.imu_path.string() + ": the IMU never held still for " +
                      std::to_string(options.static_init_s) +

@@ -1,6 +1,8 @@
 // `kestrel odometry`: direct RGB-D odometry over a TUM RGB-D folder, or with --stereo over an
 // EuRoC folder (rectify -> block matching -> disparity-space tracking); TUM trajectory out,
 // evaluation when the folder has ground truth, timing summary as the last stderr line.
+// A frame that cannot be read is skipped and counted (--strict stops instead); Ctrl-C or
+// SIGTERM stops after the current frame and writes what was done (exit status 130 / 143).
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
@@ -28,6 +30,7 @@
 #include "kestrel/odometry/stereo_odometry.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
+#include "interrupt.hpp"
 #include "progress.hpp"
 
 namespace kestrel::cli {
@@ -44,6 +47,7 @@ struct OdometryArgs {
   std::string camera;
   std::optional<double> depth_scale;  // --depth-scale: depth PNG units per metre
   bool force = false;
+  bool strict = false;  // --strict: an unreadable frame ends the run instead of being skipped
   bool quiet = false;
   // --stereo: an EuRoC folder, block-matched and tracked in disparity space.
   bool stereo = false;
@@ -98,6 +102,8 @@ class FrameLog {
       for (int j = i; j < 6; ++j) c.add(r.covariance(i, j));
     }
     c.end_row();
+    c.flush();  // whole rows on disk as they come: a log read while the run goes on, or after
+                // it was killed, ends on a complete row
   }
 
   void close() {
@@ -110,6 +116,7 @@ class FrameLog {
 
 // Mean and median of the per-frame times, as the last stderr line (its format is stable).
 void print_summary(const std::vector<double>& ms, std::size_t frames, std::size_t failures) {
+  // `frames`: the frames processed (fewer than the sequence's after an interrupt).
   double mean = 0.0, median = 0.0;
   if (!ms.empty()) {
     for (double v : ms) mean += v;
@@ -132,6 +139,70 @@ void print_summary(const std::vector<double>& ms, std::size_t frames, std::size_
 std::string failure_line(std::size_t i, const odometry::TrackResult& r) {
   return "frame " + std::to_string(i) + " (t=" + io::format_seconds(r.t_ns) +
          "): " + std::string(odometry::to_string(r.failure)) + ": " + r.failure_detail;
+}
+
+// What one run did, shared by the RGB-D and the stereo loop.
+struct RunTally {
+  std::size_t frames = 0;    // frames in the sequence
+  std::size_t processed = 0; // frames handled before the end or an interrupt (read or skipped)
+  std::size_t tracked = 0;   // frames tracked (ok), the first one included
+  std::size_t failures = 0, keyframes = 0, fallbacks = 0;
+  std::vector<std::string> skipped;  // unreadable frames, with the reason
+  std::vector<std::string> failure_lines;
+  std::vector<double> ms;
+  bool interrupted = false;
+};
+
+// An unreadable frame: skipped and counted, or with --strict the run's end (after the frames
+// done so far are written: the caller catches StrictStop).
+struct StrictStop {
+  std::string message;
+};
+
+void skip_frame(RunTally& tally, const OdometryArgs& args, std::size_t i,
+                const std::string& message) {
+  const std::string line = "frame " + std::to_string(i) + ": " + message;
+  if (args.strict) throw StrictStop{line};
+  std::cerr << "kestrel odometry: skipped unreadable " << line << "\n";
+  tally.skipped.push_back(line);
+}
+
+std::string skipped_note(const RunTally& tally) {
+  if (tally.skipped.empty()) return "";
+  return ", " + std::to_string(tally.skipped.size()) + " unreadable frame" +
+         (tally.skipped.size() == 1 ? "" : "s") + " skipped";
+}
+
+// After the loop: the trajectory and frame log of what was done, then the verdict: an interrupt,
+// a --strict stop or a run without one tracked frame is an error that says what was written.
+void finish_run(const OdometryArgs& args, const Trajectory& trajectory, FrameLog& frame_log,
+                const RunTally& tally, const std::optional<StrictStop>& strict_stop,
+                const InterruptScope& interrupt) {
+  frame_log.close();
+  io::write_tum_trajectory(args.out, trajectory, kOdometryCommand, args.force);
+  const std::string wrote = "wrote " + args.out.string() + " (" +
+                            std::to_string(trajectory.size()) + " poses)" +
+                            (args.frames.empty() ? "" : " and " + args.frames.string());
+  if (tally.interrupted) {
+    print_summary(tally.ms, tally.processed, tally.failures);
+    throw_interrupted(interrupt, "after " + std::to_string(tally.processed) + " of " +
+                                     std::to_string(tally.frames) + " frames" +
+                                     skipped_note(tally) + "; " + wrote);
+  }
+  if (strict_stop) {
+    throw InputError(strict_stop->message + " (--strict: stopped after " +
+                     std::to_string(tally.processed) + " frames; " + wrote + ")");
+  }
+  if (!tally.skipped.empty()) {
+    std::cerr << "kestrel odometry: " << tally.skipped.size() << " of " << tally.frames
+              << " frames could not be read and were skipped (--strict stops at the first)\n";
+  }
+  if (tally.tracked == 0) {
+    print_summary(tally.ms, tally.processed, tally.failures);
+    throw InputError(args.dataset.string() + ": no frame was tracked (" +
+                     std::to_string(tally.failures) + " failures" + skipped_note(tally) + "; " +
+                     wrote + ")");
+  }
 }
 
 void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory,
@@ -158,13 +229,13 @@ void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory,
 }
 
 // --plot needs ground truth; the folder is claimed before the run, not after it.
-void check_plot_dir(const OdometryArgs& args, bool has_groundtruth) {
+void check_plot_dir(const OdometryArgs& args, bool has_groundtruth, io::OutputGuard& outputs) {
   if (args.plot_dir.empty()) return;
   if (!has_groundtruth) {
     throw InputError("--plot " + args.plot_dir.string() + ": " + args.dataset.string() +
                      " has no ground truth to evaluate against");
   }
-  io::claim_output_dir(args.plot_dir, kOdometryCommand, args.force);
+  outputs.folder("--plot", args.plot_dir);
 }
 
 // The block matcher's options: the YAML file (if any), then the flags given.
@@ -222,8 +293,16 @@ void run_stereo_odometry(const OdometryArgs& args) {
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
   const sensor::BlockMatcherOptions matching = matcher_options(args);
-  io::check_can_write_file(args.out, kOdometryCommand, args.force);
   const io::EurocSequence sequence(args.dataset);
+  io::OutputGuard outputs(kOdometryCommand, args.force);
+  outputs.input("dataset", args.dataset)
+      .input("--config", args.config)
+      .input("--matcher-options", args.matcher_options);
+  for (const char* file : {"cam0/data.csv", "cam1/data.csv", "cam0/sensor.yaml", "cam1/sensor.yaml"}) {
+    outputs.input("dataset", sequence.mav0() / file);
+  }
+  if (const auto gt_csv = sequence.groundtruth_csv()) outputs.input("dataset", *gt_csv);
+  outputs.text_file("--out", args.out).text_file("--frames", args.frames);
   const sensor::StereoCalibration calibration = sensor::StereoCalibration::from_euroc(sequence);
   odometry::StereoOdometry stereo(calibration, matching, options);
   const RectifiedStereo& rig = stereo.rig();
@@ -240,47 +319,66 @@ void run_stereo_odometry(const OdometryArgs& args) {
   }
 
   const Trajectory gt = rectified_camera_groundtruth(sequence, stereo.R_rect_left());
-  check_plot_dir(args, !gt.empty());
+  check_plot_dir(args, !gt.empty(), outputs);
 
   Trajectory trajectory;
   trajectory.reserve(sequence.stereo_size());
-  std::vector<double> ms, match_ms;
-  std::size_t failures = 0, keyframes = 0;
+  RunTally tally;
+  tally.frames = sequence.stereo_size();
   double fill_sum = 0.0;
-  std::vector<std::string> failure_lines;
+  std::optional<StrictStop> strict_stop;
   FrameLog frame_log(args.frames, args.force);
+  const InterruptScope interrupt;
   ProgressBar progress("odometry --stereo", sequence.stereo_size());
-  for (std::size_t i = 0; i < sequence.stereo_size(); ++i) {
-    const io::StereoImages images = sequence.load_stereo(i);  // decoding: not timed
-    const auto t0 = std::chrono::steady_clock::now();
-    const odometry::StereoTrackResult r = stereo.track(images.t_ns, images.left, images.right);
-    const double track_ms = ms_since(t0);
-    if (r.track.failure == odometry::TrackFailure::kInvalidInput) {
-      throw InputError(args.dataset.string() + ": stereo pair " + std::to_string(i) + " (t_ns " +
-                       std::to_string(images.t_ns) + ", mav0/cam0 and mav0/cam1): " +
-                       r.track.failure_detail);
+  try {
+    for (std::size_t i = 0; i < sequence.stereo_size(); ++i) {
+      if (interrupt.requested()) {
+        tally.interrupted = true;
+        break;
+      }
+      tally.processed = i + 1;
+      io::StereoImages images;
+      try {
+        images = sequence.load_stereo(i);  // decoding: not timed
+      } catch (const InputError& e) {
+        skip_frame(tally, args, i, e.what());
+        continue;
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      const odometry::StereoTrackResult r = stereo.track(images.t_ns, images.left, images.right);
+      const double track_ms = ms_since(t0);
+      if (r.track.failure == odometry::TrackFailure::kInvalidInput) {
+        skip_frame(tally, args, i,
+                   "stereo pair t_ns " + std::to_string(images.t_ns) +
+                       " (mav0/cam0 and mav0/cam1): " + r.track.failure_detail);
+        continue;
+      }
+      if (!trajectory.empty()) tally.ms.push_back(track_ms);
+      frame_log.add(i, r.track, track_ms);
+      fill_sum += r.match.fill_rate();
+      if (r.track.ok()) {
+        ++tally.tracked;
+      } else {
+        ++tally.failures;
+        if (tally.failure_lines.size() < 20) tally.failure_lines.push_back(failure_line(i, r.track));
+      }
+      tally.keyframes += r.track.new_keyframe ? 1 : 0;
+      trajectory.push_back({images.t_ns, r.track.T_world_cam});
+      progress.update(i + 1);
     }
-    if (i > 0) ms.push_back(track_ms);
-    frame_log.add(i, r.track, track_ms);
-    fill_sum += r.match.fill_rate();
-    if (!r.track.ok()) {
-      ++failures;
-      if (failure_lines.size() < 20) failure_lines.push_back(failure_line(i, r.track));
-    }
-    keyframes += r.track.new_keyframe ? 1 : 0;
-    trajectory.push_back({images.t_ns, r.track.T_world_cam});
-    progress.update(i + 1);
+  } catch (const StrictStop& stop) {
+    strict_stop = stop;
   }
   progress.finish();
-  frame_log.close();
-  io::write_tum_trajectory(args.out, trajectory, kOdometryCommand, args.force);
+  for (const auto& line : tally.failure_lines) std::cerr << "failure: " << line << "\n";
+  finish_run(args, trajectory, frame_log, tally, strict_stop, interrupt);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses of the "
-            << "rectified left camera, " << keyframes << " keyframes, " << failures
-            << " failures, mean disparity fill "
-            << 100.0 * fill_sum / static_cast<double>(sequence.stereo_size()) << " %)\n";
-  for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
+            << "rectified left camera, " << tally.keyframes << " keyframes, " << tally.failures
+            << " failures" << skipped_note(tally) << ", mean disparity fill "
+            << 100.0 * fill_sum / static_cast<double>(std::max<std::size_t>(trajectory.size(), 1))
+            << " %)\n";
   if (!gt.empty()) evaluate_and_print(gt, trajectory, args);
-  print_summary(ms, sequence.stereo_size(), failures);
+  print_summary(tally.ms, tally.processed, tally.failures);
 }
 
 std::string default_camera_for(const std::filesystem::path& folder) {
@@ -292,10 +390,6 @@ std::string default_camera_for(const std::filesystem::path& folder) {
 }
 
 void run_odometry(const OdometryArgs& args) {
-  if (!args.frames.empty() && std::filesystem::weakly_canonical(args.frames) ==
-                                  std::filesystem::weakly_canonical(args.out)) {
-    throw InputError("--frames " + args.frames.string() + ": the same file as --out");
-  }
   if (args.stereo) {
     run_stereo_odometry(args);
     return;
@@ -316,8 +410,16 @@ void run_odometry(const OdometryArgs& args) {
   const odometry::DirectTrackerOptions options =
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
-  // Refuse to overwrite someone else's file before doing the work.
-  io::check_can_write_file(args.out, kOdometryCommand, args.force);
+  // Refuse to overwrite someone else's file, or an input, before doing the work.
+  io::OutputGuard outputs(kOdometryCommand, args.force);
+  outputs.input("dataset", args.dataset).input("--config", args.config);
+  for (const char* file : {"rgb.txt", "depth.txt", "groundtruth.txt"}) {
+    outputs.input("dataset", args.dataset / file);
+  }
+  if (!args.camera.empty() && std::filesystem::exists(args.camera)) {
+    outputs.input("--camera", args.camera);
+  }
+  outputs.text_file("--out", args.out).text_file("--frames", args.frames);
   io::TumRgbdOptions sequence_options;
   sequence_options.depth_scale = args.depth_scale.value_or(sequence_options.depth_scale);
   const io::TumRgbdSequence sequence(args.dataset, sequence_options);
@@ -330,44 +432,61 @@ void run_odometry(const OdometryArgs& args) {
   print_options(options, args);
   if (sequence.size() == 0) throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
   const auto gt = sequence.groundtruth();
-  check_plot_dir(args, gt.has_value());
+  check_plot_dir(args, gt.has_value(), outputs);
 
   odometry::DirectTracker tracker(camera, options);
   Trajectory trajectory;
   trajectory.reserve(sequence.size());
-  std::vector<double> ms;
-  ms.reserve(sequence.size());
-  std::size_t failures = 0, keyframes = 0, fallbacks = 0;
-  std::vector<std::string> failure_lines;
+  RunTally tally;
+  tally.frames = sequence.size();
+  tally.ms.reserve(sequence.size());
+  std::optional<StrictStop> strict_stop;
   FrameLog frame_log(args.frames, args.force);
+  const InterruptScope interrupt;
   ProgressBar progress("odometry", sequence.size());
-  for (std::size_t i = 0; i < sequence.size(); ++i) {
-    const io::RgbdImages images = sequence.load(i);  // decoding: not timed
-    odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
-    const auto t0 = std::chrono::steady_clock::now();
-    const odometry::TrackResult r = tracker.track(frame);
-    const double track_ms = ms_since(t0);
-    if (i > 0) ms.push_back(track_ms);
-    frame_log.add(i, r, track_ms);
-    if (!r.ok()) {
-      ++failures;
-      if (failure_lines.size() < 20) failure_lines.push_back(failure_line(i, r));
+  try {
+    for (std::size_t i = 0; i < sequence.size(); ++i) {
+      if (interrupt.requested()) {
+        tally.interrupted = true;
+        break;
+      }
+      tally.processed = i + 1;
+      io::RgbdImages images;
+      try {
+        images = sequence.load(i);  // decoding: not timed
+      } catch (const InputError& e) {
+        skip_frame(tally, args, i, e.what());
+        continue;
+      }
+      odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
+      const auto t0 = std::chrono::steady_clock::now();
+      const odometry::TrackResult r = tracker.track(frame);
+      const double track_ms = ms_since(t0);
+      if (!trajectory.empty()) tally.ms.push_back(track_ms);
+      frame_log.add(i, r, track_ms);
+      if (r.ok()) {
+        ++tally.tracked;
+      } else {
+        ++tally.failures;
+        if (tally.failure_lines.size() < 20) tally.failure_lines.push_back(failure_line(i, r));
+      }
+      tally.keyframes += r.new_keyframe ? 1 : 0;
+      tally.fallbacks += r.geometric_fallback ? 1 : 0;
+      trajectory.push_back({images.t_ns, r.T_world_cam});
+      progress.update(i + 1);
     }
-    keyframes += r.new_keyframe ? 1 : 0;
-    fallbacks += r.geometric_fallback ? 1 : 0;
-    trajectory.push_back({images.t_ns, r.T_world_cam});
-    progress.update(i + 1);
+  } catch (const StrictStop& stop) {
+    strict_stop = stop;
   }
   progress.finish();
-  frame_log.close();
-  io::write_tum_trajectory(args.out, trajectory, kOdometryCommand, args.force);
+  for (const auto& line : tally.failure_lines) std::cerr << "failure: " << line << "\n";
+  finish_run(args, trajectory, frame_log, tally, strict_stop, interrupt);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses, "
-            << keyframes << " keyframes, " << failures << " failures, " << fallbacks
-            << " by the geometric fallback)\n";
-  for (const auto& line : failure_lines) std::cerr << "failure: " << line << "\n";
+            << tally.keyframes << " keyframes, " << tally.failures << " failures, "
+            << tally.fallbacks << " by the geometric fallback" << skipped_note(tally) << ")\n";
 
   if (gt) evaluate_and_print(*gt, trajectory, args);
-  print_summary(ms, sequence.size(), failures);
+  print_summary(tally.ms, tally.processed, tally.failures);
 }
 
 }  // namespace
@@ -409,6 +528,9 @@ void add_odometry_command(CLI::App& app) {
                   "--stereo: block matcher options YAML (the flags above override it)")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--force", args->force, "overwrite an output file written by something else");
+  cmd->add_flag("--strict", args->strict,
+                "stop at the first frame that cannot be read (default: skip it, count it and "
+                "report it)");
   cmd->callback([args] { run_odometry(*args); });
 }
 

@@ -1,6 +1,5 @@
 // `kestrel pattern`: the projector's random-line pattern (thesis 2.3) as a PNG.
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
@@ -8,11 +7,14 @@
 
 #include "commands.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/io/output_guard.hpp"
 #include "kestrel/sensor/pattern.hpp"
 #include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
+
+constexpr const char* kPatternCommand = "pattern";
 
 struct PatternArgs {
   sensor::PatternOptions options;
@@ -22,17 +24,6 @@ struct PatternArgs {
   bool force = false;
 };
 
-/// Images carry no provenance line: refuse to replace a file that is not a PNG unless forced.
-void check_can_write_png(const std::filesystem::path& path, bool force) {
-  if (force || !std::filesystem::exists(path)) return;
-  std::ifstream in(path, std::ios::binary);
-  char magic[4] = {};
-  in.read(magic, 4);
-  if (!(magic[1] == 'P' && magic[2] == 'N' && magic[3] == 'G')) {
-    throw InputError(path.string() + ": exists and is not a PNG image; not overwritten (use --force)");
-  }
-}
-
 void run_pattern(PatternArgs& args) {
   args.options.colors = sensor::parse_pattern_colors(args.colors);
   try {
@@ -41,10 +32,9 @@ void run_pattern(PatternArgs& args) {
     throw InputError(e.what());
   }
   if (args.out.extension() != ".png") throw InputError("--out: the pattern is written as PNG (*.png)");
-  check_can_write_png(args.out, args.force);
+  io::OutputGuard(kPatternCommand, args.force).binary_file("--out", args.out);
   std::cerr << "kestrel pattern: " << args.options.describe() << ", seed " << args.seed << "\n";
   const cv::Mat pattern = sensor::generate_pattern(args.options, args.seed);
-  if (args.out.has_parent_path()) std::filesystem::create_directories(args.out.parent_path());
   if (!cv::imwrite(args.out.string(), pattern)) throw InputError(args.out.string() + ": cannot write");
   std::cout << "wrote " << args.out.string() << "\n";
 }
@@ -75,7 +65,7 @@ void add_pattern_command(CLI::App& app) {
   cmd->add_flag("--aliased{false}", o.antialiased, "draw hard (not antialiased) lines");
   cmd->add_option("--seed", args->seed, "random seed")->capture_default_str();
   cmd->add_option("--out", args->out, "output PNG")->required();
-  cmd->add_flag("--force", args->force, "overwrite a file that is not a PNG");
+  cmd->add_flag("--force", args->force, "overwrite an existing file (images carry no mark of what wrote them)");
   cmd->callback([args] { run_pattern(*args); });
 }
 

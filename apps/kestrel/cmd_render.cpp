@@ -20,6 +20,7 @@
 #include "kestrel/sim/scenes.hpp"
 #include "kestrel/sim/sequence_writer.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
+#include "interrupt.hpp"
 #include "option_checks.hpp"
 #include "progress.hpp"
 
@@ -129,6 +130,14 @@ void run_render(const RenderArgs& a) {
       << "  output:     " << a.out << "\n";
   std::cout << log.str() << std::flush;
 
+  {
+    io::OutputGuard outputs(sim::SequenceWriter::kCommand, a.force);
+    for (const auto& [option, value] : {std::pair{"--camera", a.camera}, {"--noise", a.noise},
+                                        {"--render-options", a.render_options}}) {
+      if (std::filesystem::is_regular_file(value)) outputs.input(option, value);
+    }
+    outputs.folder("--out", a.out);
+  }
   sim::SequenceWriter writer(a.out, layout, a.force);
   {
     const std::filesystem::path info = std::filesystem::path(a.out) / "render.txt";
@@ -149,9 +158,11 @@ void run_render(const RenderArgs& a) {
   }
   sim::RenderedFrame frame;
   sim::StereoFrame stereo_frame;
+  const InterruptScope interrupt;  // Ctrl-C: the frames rendered so far form a sequence
   ProgressBar progress("render", frames);
   double render_s = 0.0;
-  for (std::size_t k = 0; k < frames; ++k) {
+  std::size_t written = 0;
+  for (std::size_t k = 0; k < frames && !interrupt.requested(); ++k) {
     const TimeNs t_ns = clock.time_ns(k);
     const sim::KinematicState body = trajectory.state(clock.trajectory_time_s(t_ns));
     const SE3 T_world_cam = body.T_world_body * layout.T_body_cam;
@@ -167,10 +178,17 @@ void run_render(const RenderArgs& a) {
     } else {
       writer.write(t_ns, body, frame);
     }
-    progress.update(k + 1);
+    written = k + 1;
+    progress.update(written);
   }
   writer.finish();
   progress.finish();
+  if (interrupt.requested()) {
+    throw_interrupted(interrupt, "after " + std::to_string(written) + " of " +
+                                     std::to_string(frames) + " frames; wrote them to " + a.out +
+                                     " (a complete sequence of " + std::to_string(written) +
+                                     " frames)");
+  }
   std::cout << "wrote " << frames << " frames to " << a.out << " (rendering "
             << std::setprecision(3) << 1e3 * render_s / static_cast<double>(frames) << " ms per "
             << (stereo ? "stereo pair" : "frame") << ")\n";

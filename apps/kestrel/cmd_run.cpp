@@ -3,8 +3,6 @@
 // camera; prints per-stage statistics and the end-to-end latency, writes the fused trajectory
 // (TUM; with the camera, which brings no IMU, the odometry's own trajectory) and the
 // controller's commands and PWM pulses (CSV; no flight controller is driven).
-#include <atomic>
-#include <csignal>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -20,6 +18,7 @@
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/pipeline/pipeline.hpp"
+#include "interrupt.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -32,12 +31,6 @@ struct RunArgs {
   fs::path out;
   bool force = false;
 };
-
-// Ctrl-C asks the pipeline to stop: the source ends, queues close, the stages drain.
-// A lock-free atomic is what a signal handler may touch.
-std::atomic<bool> g_stop{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-extern "C" void on_sigint(int) { g_stop.store(true); }
 
 std::string load_average() {
   double l[3] = {0, 0, 0};
@@ -135,31 +128,30 @@ void run_run(const RunArgs& a) {
                      " does not exist");
   }
   fs::path out_file = options.output;
-  if (!a.out.empty()) {
-    io::claim_output_dir(a.out, kRunCommand, a.force);
-    out_file = a.out / options.output;
-  }
   fs::path controller_file = options.controller.output;
-  if (!a.out.empty()) controller_file = a.out / options.controller.output;
-  io::check_can_write_file(out_file, kRunCommand, a.force);  // before the run, not after it
-  io::check_can_write_file(controller_file, kRunCommand, a.force);
+  io::OutputGuard outputs(kRunCommand, a.force);
+  outputs.input("--config", a.config);
+  if (!camera) outputs.input("input", options.input);
+  if (!a.out.empty()) {
+    outputs.folder("--out", a.out);
+    out_file = a.out / options.output;
+    controller_file = a.out / options.controller.output;
+  }
+  // Before the run, not after it.
+  outputs.text_file("output", out_file).text_file("controller.output", controller_file);
   std::cerr << "kestrel run: config=" << a.config.string() << "\n  " << options.describe()
             << "\n  matcher: " << options.matcher.describe()
             << "\n  load average: " << load_average()
             << ", hardware threads: " << std::thread::hardware_concurrency() << "\n";
 
-  g_stop = false;
-  const auto previous = std::signal(SIGINT, on_sigint);
+  // Ctrl-C asks the pipeline to stop: the source ends, queues close, the stages drain.
+  const InterruptScope interrupt;
   pipeline::PipelineReport report;
-  try {
+  {
     pipeline::PipelineEnvironment environment;
     environment.log = &std::cerr;  // the camera's dropped frames
-    report = pipeline::run_pipeline(options, &g_stop, environment);
-  } catch (...) {
-    std::signal(SIGINT, previous);
-    throw;
+    report = pipeline::run_pipeline(options, interrupt.flag(), environment);
   }
-  std::signal(SIGINT, previous);
 
   Trajectory trajectory;
   trajectory.reserve(report.states.size());
@@ -179,6 +171,12 @@ void run_run(const RunArgs& a) {
   std::cout << "controller commands and PWM (" << report.controller.size()
             << " rows, not sent to any flight controller): " << controller_file.string() << "\n";
   std::cout << "load average after the run: " << load_average() << std::endl;
+  if (report.interrupted) {
+    throw_interrupted(interrupt, "after " + std::to_string(report.stereo_pairs) +
+                                     " stereo pairs; wrote " + out_file.string() + " (" +
+                                     std::to_string(trajectory.size()) + " poses) and " +
+                                     controller_file.string());
+  }
   // A camera that went away or stalled ended the run cleanly (trajectory written), but not as
   // asked: the exit status says so, as `kestrel capture` does.
   if (report.camera && !report.camera->ended_as_asked()) {

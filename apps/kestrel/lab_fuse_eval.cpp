@@ -13,6 +13,7 @@
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/lab/fusion_experiments.hpp"
 #include "kestrel/lab/fusion_simulation.hpp"
+#include "interrupt.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -72,11 +73,20 @@ void run_fuse_eval(const FuseEvalArgs& a) {
     std::cout << "# CONTROL EXPERIMENT: the real IMU replaced by one synthesised from the ground "
                  "truth with imu0/sensor.yaml's noise (--synthetic-imu); not the issue's targets\n";
   }
+  // Ctrl-C stops between the experiments (each noise draw, the simulation): what was printed
+  // stands, and the exit status says the run is incomplete.
+  const InterruptScope interrupt;
   if (!a.skip_real) {
     // The first seed's runs in full; with --seeds N the spread of the targets' figures over
     // the N draws (each run is one draw of the measurement noise).
     std::vector<lab::EurocExperimentResult> v1_02, v1_01;
     for (int k = 0; k < a.seeds; ++k) {
+      if (interrupt.requested()) {
+        std::cout << std::flush;
+        throw_interrupted(interrupt, "after " + std::to_string(k) + " of " +
+                                         std::to_string(a.seeds) +
+                                         " noise draws of the EuRoC runs (printed above)");
+      }
       eo.seed = a.seed + static_cast<std::uint64_t>(k);
       v1_02.push_back(lab::run_v1_02(data / "euroc" / "V1_02_medium_imu_groundtruth", options, eo));
       v1_01.push_back(lab::run_v1_01(data / "euroc" / "V1_01_easy_part1", options, eo));
@@ -99,6 +109,7 @@ void run_fuse_eval(const FuseEvalArgs& a) {
     fusion::FusionOptions sim_default;
     sim_default.first_estimate_jacobians = options.first_estimate_jacobians;
     for (const fusion::FusionOptions& o : {sim_default, options}) {
+      if (interrupt.requested()) break;
       const auto r = lab::monte_carlo_nees(a.runs, sim, o, a.seed);
       std::cout.setf(std::ios::fixed);
       std::cout.precision(3);
@@ -115,6 +126,10 @@ void run_fuse_eval(const FuseEvalArgs& a) {
                 << "% of steps\n"
                 << "  position RMSE " << r.rmse_p_m << " m\n";
     }
+  }
+  if (interrupt.requested()) {
+    std::cout << std::flush;
+    throw_interrupted(interrupt, "before all experiments ran (those done are printed above)");
   }
 }
 

@@ -16,6 +16,7 @@
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/lab/stereo_experiment.hpp"
 #include "kestrel/lab/stereo_odometry_experiment.hpp"
+#include "interrupt.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -54,13 +55,21 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  io::claim_output_dir(args.out, kStereoExperimentCommand, args.force);
+  io::OutputGuard(kStereoExperimentCommand, args.force).folder("--out", args.out);
   if (args.write_sequences) {
     o.write_sequences_to = args.out;
     o.force = true;  // inside the folder this command has just claimed
   }
   std::cerr << "kestrel lab stereo-experiment --odometry: " << o.describe() << "\n";
+  // The experiment runs as one piece: Ctrl-C is honoured when it returns (a second one ends
+  // the process at once), and nothing is written then.
+  const InterruptScope interrupt;
   const lab::StereoOdometryExperimentResult r = lab::run_stereo_odometry_experiment(o);
+  if (interrupt.requested()) {
+    throw_interrupted(interrupt, "before the results were written; nothing written to " +
+                                     args.out.string() +
+                                     (args.write_sequences ? " but the sequences" : ""));
+  }
   io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kStereoExperimentCommand,
                            true);
   for (const auto& run : r.runs) {
@@ -119,7 +128,7 @@ void run_experiment(ExperimentArgs& args, const CLI::App& cmd) {
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  io::claim_output_dir(args.out, kStereoExperimentCommand, args.force);
+  io::OutputGuard(kStereoExperimentCommand, args.force).folder("--out", args.out);
   std::cerr << "kestrel lab stereo-experiment: " << args.options.describe() << "\n";
   const lab::StereoExperimentResult r = lab::run_stereo_experiment(args.options);
 

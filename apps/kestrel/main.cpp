@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -28,6 +29,10 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const kestrel::cli::Interrupted& e) {
+    // The command stopped on Ctrl-C / SIGTERM after writing what it had; it says what.
+    std::cerr << "kestrel: " << e.what() << "\n";
+    return e.exit_code();
   } catch (const std::exception& e) {
     // Subcommand callbacks run inside parse(); any failure there is reported here once.
     std::cerr << "kestrel: error: " << e.what() << "\n";

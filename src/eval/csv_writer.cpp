@@ -58,6 +58,8 @@ void CsvWriter::end_row() {
   in_row_ = 0;
 }
 
+void CsvWriter::flush() { out_.flush(); }
+
 void CsvWriter::close() {
   out_.flush();
   if (!out_) throw InputError(path_.string() + ": write failed (disk full?)");

@@ -276,7 +276,8 @@ FlightSimulation::FlightSimulation(Scenario scenario, FlightOptions options)
 }
 
 FlightResult FlightSimulation::run(double duration_s,
-                                   const std::function<void(const FlightSample&)>& progress) {
+                                   const std::function<void(const FlightSample&)>& progress,
+                                   const std::atomic<bool>* stop) {
   if (!(duration_s > 0.0)) throw std::invalid_argument("flight: duration must be positive");
   const auto wall_start = std::chrono::steady_clock::now();
   const FlightOptions& o = options_;
@@ -301,6 +302,10 @@ FlightResult FlightSimulation::run(double duration_s,
     if (tick % control_every == 0) {
       result.samples.push_back(loop.control_step(t_ns, t_s));
       if (progress && tick % progress_every == 0) progress(result.samples.back());
+      if (stop != nullptr && stop->load()) {
+        result.interrupted = true;
+        break;
+      }
     }
     if (loop.truth().crashed && !crash_ns) crash_ns = t_ns;
     if (crash_ns && t_ns - *crash_ns > s_to_ns(1.0)) break;

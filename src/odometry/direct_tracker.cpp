@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <span>
@@ -822,6 +823,8 @@ TrackResult invalid_input(const Frame& frame, std::string detail, const SE3& T_w
   result.failure = TrackFailure::kInvalidInput;
   result.failure_detail = std::move(detail);
   result.T_world_cam = T_world_cam;
+  // Nothing was aligned: no ratio was measured.
+  result.inlier_ratio = result.overlap = std::numeric_limits<double>::quiet_NaN();
   return result;
 }
 
@@ -929,6 +932,8 @@ class TrackingStep {
     result.points = m_.ref[static_cast<std::size_t>(o_.finest_level)].count;
     result.covariance.setZero();
     if (result.points < o_.min_points) {
+      // No alignment ran: the ratios of a frame that cannot even be a reference are unknown.
+      result.inlier_ratio = result.overlap = std::numeric_limits<double>::quiet_NaN();
       result.failure = TrackFailure::kTooFewPoints;
       result.failure_detail = "first frame has " + std::to_string(result.points) +
                               " usable points: the next frame starts again";

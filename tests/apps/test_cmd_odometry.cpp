@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "run_cli.hpp"
@@ -164,6 +166,103 @@ TEST_F(CmdOdometry, PlotWritesTheEvaluationFilesAndNeedsGroundTruth) {
   EXPECT_NE(no_gt.err.find("no ground truth"), std::string::npos) << no_gt.err;
   EXPECT_FALSE(fs::exists(dir_ / "plots2"));
   EXPECT_FALSE(fs::exists(dir_ / "n.txt"));
+}
+
+// A copy of the rendered sequence whose rgb images can be spoilt, in the order of rgb.txt.
+class CmdOdometryBadFrames : public CmdOdometry {
+ protected:
+  void SetUp() override {
+    CmdOdometry::SetUp();
+    if (HasFatalFailure()) return;
+    fs::copy(dir_ / "seq", dir_ / "bad", fs::copy_options::recursive);
+    for (const auto& entry : fs::directory_iterator(dir_ / "bad" / "rgb")) rgb_.push_back(entry.path());
+    std::sort(rgb_.begin(), rgb_.end());  // the names are the time stamps
+    ASSERT_EQ(rgb_.size(), 6U);
+  }
+  void spoil(std::size_t frame) const { std::ofstream(rgb_[frame]) << "not a PNG any more"; }
+  RunResult odometry_bad(const std::string& extra) const {
+    return kestrel::test::run_kestrel(dir_,
+                                      "odometry " + quoted((dir_ / "bad").string()) + " --camera " +
+                                          quoted((dir_ / "small.yaml").string()) + " " + extra);
+  }
+  std::vector<fs::path> rgb_;
+};
+
+// One unreadable frame mid-sequence: skipped, counted and named; every other frame is tracked
+// and written. --strict stops there instead, with the frames before it written.
+TEST_F(CmdOdometryBadFrames, AnUnreadableFrameIsSkippedAndCountedOrStopsWithStrict) {
+  spoil(3);
+  const RunResult r = odometry_bad("--out " + path("t.txt") + " --frames " + path("f.csv"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("skipped unreadable frame 3"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(rgb_[3].filename().string()), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("1 unreadable frame skipped"), std::string::npos) << r.out;
+  EXPECT_EQ(kestrel::io::read_tum_trajectory(dir_ / "t.txt").size(), 5U);
+  const auto csv = lines_of(slurp(dir_ / "f.csv"));
+  ASSERT_EQ(csv.size(), 2U + 5U);
+  EXPECT_EQ(csv[5].rfind("4,", 0), 0U) << "frame 3 has no row: " << csv[5];
+
+  const RunResult strict =
+      odometry_bad("--strict --out " + path("s.txt") + " --frames " + path("s.csv"));
+  EXPECT_NE(strict.exit_code, 0);
+  EXPECT_NE(strict.err.find(rgb_[3].filename().string()), std::string::npos) << strict.err;
+  EXPECT_NE(strict.err.find("--strict"), std::string::npos) << strict.err;
+  EXPECT_EQ(kestrel::io::read_tum_trajectory(dir_ / "s.txt").size(), 3U);  // frames 0, 1, 2
+  EXPECT_EQ(lines_of(slurp(dir_ / "s.csv")).size(), 2U + 3U);
+}
+
+TEST_F(CmdOdometryBadFrames, NoFrameReadIsAnError) {
+  for (std::size_t i = 0; i < rgb_.size(); ++i) spoil(i);
+  const RunResult r = odometry_bad("--out " + path("t.txt"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("no frame was tracked"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("6 unreadable frames skipped"), std::string::npos) << r.err;
+}
+
+// Depth maps without a single valid depth: every frame is read but none can be tracked. The run
+// is an error, and the per-frame log says what was measured: nothing (nan), not overlap 1.
+TEST_F(CmdOdometryBadFrames, NoFrameTrackedIsAnErrorAndTheLogHoldsNoInventedRatios) {
+  for (const auto& entry : fs::directory_iterator(dir_ / "bad" / "depth")) {
+    cv::Mat depth = cv::imread(entry.path().string(), cv::IMREAD_ANYDEPTH);
+    ASSERT_FALSE(depth.empty()) << entry.path();
+    depth.setTo(0);
+    ASSERT_TRUE(cv::imwrite(entry.path().string(), depth));
+  }
+  const RunResult r = odometry_bad("--out " + path("t.txt") + " --frames " + path("f.csv"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("no frame was tracked (6 failures"), std::string::npos) << r.err;
+  EXPECT_EQ(kestrel::io::read_tum_trajectory(dir_ / "t.txt").size(), 6U);  // still written
+  const auto csv = lines_of(slurp(dir_ / "f.csv"));
+  ASSERT_EQ(csv.size(), 2U + 6U);
+  std::vector<std::string> header;
+  {
+    std::istringstream h(csv[1]);
+    for (std::string x; std::getline(h, x, ',');) header.push_back(x);
+  }
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  };
+  for (std::size_t i = 2; i < csv.size(); ++i) {
+    std::vector<std::string> f;
+    std::istringstream row(csv[i]);
+    for (std::string x; std::getline(row, x, ',');) f.push_back(x);
+    ASSERT_EQ(f.size(), header.size()) << csv[i];
+    EXPECT_EQ(f[column("ok")], "0") << csv[i];
+    EXPECT_EQ(f[column("failure")], "too_few_points") << csv[i];
+    EXPECT_EQ(f[column("overlap")], "nan") << csv[i];
+    EXPECT_EQ(f[column("inlier_ratio")], "nan") << csv[i];
+  }
+}
+
+// An --out that cannot be written is found before the first frame, not after the last.
+TEST_F(CmdOdometry, UnwritableOutIsFoundBeforeAnyWork) {
+  ASSERT_TRUE(fs::is_directory("/proc/self")) << "needs procfs (which takes no new files)";
+  const RunResult r =
+      odometry("--out /proc/self/kestrel_traj.txt --frames " + path("frames.csv"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("/proc/self/kestrel_traj.txt"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("SUMMARY"), std::string::npos) << "frames were tracked first:\n" << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "frames.csv"));
 }
 
 }  // namespace

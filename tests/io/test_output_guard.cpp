@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <sstream>
+#include <string>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/output_guard.hpp"
@@ -9,6 +11,13 @@
 
 namespace kestrel::io {
 namespace {
+
+std::string contents(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 TEST(OutputGuard, NewFileAndSameCommandReRunAreAllowed) {
   const auto dir = test::fresh_temp_dir("io");
@@ -53,6 +62,76 @@ TEST(OutputGuard, Folders) {
   EXPECT_NO_THROW(claim_output_dir(dir / "mine", "render", true));
   std::ofstream(dir / "file") << "x";
   EXPECT_THROW(claim_output_dir(dir / "file", "render", true), InputError);
+}
+
+// Images carry no provenance line: any existing one is refused without --force, and the refusal
+// leaves it as it was.
+TEST(OutputGuard, ExistingImageIsRefusedUnlessForced) {
+  const auto dir = test::fresh_temp_dir("io");
+  const auto photo = dir / "photo.png";
+  std::ofstream(photo) << "\x89PNG not really";
+  try {
+    check_can_write_binary(photo, false);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("photo.png"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--force"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(check_can_write_binary(photo, true));
+  EXPECT_NO_THROW(check_can_write_binary(dir / "new" / "d.png", false));
+  EXPECT_TRUE(std::filesystem::is_directory(dir / "new"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "new" / "d.png"));  // the probe leaves nothing
+}
+
+// An output that is an input is refused even with --force: by its path, through "..", through a
+// hard link (std::filesystem::equivalent); so are two outputs that are one file and an output
+// folder that holds an input.
+TEST(OutputGuard, OutputThatIsAnInputIsRefusedEvenWithForce) {
+  const auto dir = test::fresh_temp_dir("io");
+  std::filesystem::create_directories(dir / "sub");
+  const auto left = dir / "left.png";
+  std::ofstream(left) << "left";
+  std::filesystem::create_hard_link(left, dir / "link.png");
+  for (const auto& out : {left, dir / "sub" / ".." / "left.png", dir / "link.png"}) {
+    OutputGuard guard("disparity", true);
+    guard.input("--left", left);
+    try {
+      guard.binary_file("--color", out);
+      FAIL() << out;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("--color"), std::string::npos) << what;
+      EXPECT_NE(what.find("--left"), std::string::npos) << what;
+    }
+  }
+  {
+    OutputGuard guard("disparity", true);
+    guard.input("--left", left).binary_file("--out", dir / "d.pfm");
+    EXPECT_THROW(guard.binary_file("--color", dir / "sub" / ".." / "d.pfm"), InputError);
+    EXPECT_NO_THROW(guard.binary_file("--depth", dir / "depth.png"));
+  }
+  OutputGuard folders("render", true);
+  folders.input("--camera", left);
+  EXPECT_THROW(folders.folder("--out", dir), InputError);
+  EXPECT_NO_THROW(folders.folder("--out", dir / "sub"));
+  EXPECT_EQ(contents(left), "left");
+}
+
+// A path that cannot be written is found by the check, before any work.
+TEST(OutputGuard, UnwritablePathIsFoundByTheCheck) {
+  const auto dir = test::fresh_temp_dir("io");
+  std::ofstream(dir / "file") << "x";
+  EXPECT_THROW(check_can_write_file(dir / "file" / "traj.txt", "odometry", true), InputError);
+  // procfs takes no new files, whoever runs the test (root included).
+  if (std::filesystem::is_directory("/proc/self")) {
+    try {
+      check_can_write_file("/proc/self/kestrel_traj.txt", "odometry", true);
+      FAIL();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("/proc/self/kestrel_traj.txt"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace

@@ -25,6 +25,8 @@ class CsvWriter {
   CsvWriter& add(std::string_view text);
   /// Ends the row; throws std::logic_error if it does not have one value per column.
   void end_row();
+  /// Pushes the rows ended so far to the file (a log that is read while it grows).
+  void flush();
   /// Flushes; throws InputError if anything failed to write.
   void close();
 

@@ -10,6 +10,7 @@
 // at 30 Hz with its measurement reaching the filter vision_latency_s after the exposure.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -89,6 +90,7 @@ struct FlightResult {
   double settle_s = 0.0;  ///< errors are scored from here on
   double duration_s = 0.0;
   bool crashed = false;
+  bool interrupted = false;  ///< stopped early by the stop flag; duration_s is what was flown
   std::string final_mode;
   /// RMS of |p_true - p_ref| over the samples at t >= settle_s (the tracking figure of
   /// docs/flight.md; while the supervisor holds or lands, its reference counts).
@@ -105,9 +107,11 @@ class FlightSimulation {
   FlightSimulation(Scenario scenario, FlightOptions options);
 
   /// Flies for duration_s of simulated time (stops 1 s after a crash). `progress` is called
-  /// once per simulated second.
+  /// once per simulated second. `stop` (may be null), when raised, ends the flight after the
+  /// current control step (result.interrupted).
   FlightResult run(double duration_s,
-                   const std::function<void(const FlightSample&)>& progress = {});
+                   const std::function<void(const FlightSample&)>& progress = {},
+                   const std::atomic<bool>* stop = nullptr);
 
   [[nodiscard]] const Scenario& scenario() const { return scenario_; }
   [[nodiscard]] const FlightOptions& options() const { return options_; }

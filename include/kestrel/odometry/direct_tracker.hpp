@@ -73,8 +73,12 @@ struct TrackResult {
   double depth_sigma = 0.0; ///< final robust sigma of the geometric residuals (m), 0 if unused
   int depth_points = 0;     ///< reference points with a geometric residual on that level
   double depth_inlier_ratio = 0.0;  ///< geometric residuals within c sigma / points with a normal
-  double inlier_ratio = 0.0;  ///< residuals within c sigma / reference points
-  double overlap = 0.0;       ///< reference points that project into the image / all
+  /// Residuals within c sigma / reference points, and reference points that project into the
+  /// image / all, as measured by the last alignment (also on a failed one); 1 for a frame that
+  /// starts the sequence (its own reference); NaN where nothing was aligned (invalid input, or a
+  /// first frame with too few points).
+  double inlier_ratio = 0.0;
+  double overlap = 0.0;
   int points = 0;             ///< reference points on the finest level iterated
   double gain = 0.0;          ///< g of I_ref = (1 + g) I_cur + b
   double bias = 0.0;
