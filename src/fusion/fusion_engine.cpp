@@ -123,12 +123,12 @@ std::string describe_flags(std::uint32_t flags) {
 std::string FusionCounters::describe() const {
   std::ostringstream s;
   s << "imu=" << imu_samples << " imu_late=" << imu_dropped_late
-    << " imu_invalid=" << imu_dropped_invalid << " imu_out_of_range=" << imu_out_of_range
-    << " imu_duplicate=" << imu_duplicate << " imu_gaps=" << imu_gaps
-    << " imu_gaps_beyond_horizon=" << imu_gaps_beyond_horizon << " updates=" << updates_accepted
-    << " gated=" << updates_gated << " invalid=" << updates_invalid
-    << " no_reference=" << updates_no_reference << " vo_late=" << measurements_dropped_late
-    << " vo_before_init=" << measurements_before_init
+    << " imu_before_start=" << imu_before_start << " imu_invalid=" << imu_dropped_invalid
+    << " imu_out_of_range=" << imu_out_of_range << " imu_duplicate=" << imu_duplicate
+    << " imu_gaps=" << imu_gaps << " imu_gaps_beyond_horizon=" << imu_gaps_beyond_horizon
+    << " updates=" << updates_accepted << " gated=" << updates_gated
+    << " invalid=" << updates_invalid << " no_reference=" << updates_no_reference
+    << " vo_late=" << measurements_dropped_late << " vo_before_init=" << measurements_before_init
     << " vo_outside_imu=" << measurements_outside_imu << " implausible=" << implausible_outputs
     << " mean_nis=" << mean_nis();
   return s.str();
@@ -242,7 +242,8 @@ void FusionEngine::add_imu(const io::ImuSample& sample) {
     return;
   }
   if (sample.t_ns <= processed_ns_ && (initialized_ || last_imu_)) {
-    ++counters_.imu_dropped_late;
+    // Before the first sample after a given initial state: not late, only before the start.
+    ++(last_imu_ ? counters_.imu_dropped_late : counters_.imu_before_start);
     return;
   }
   imu_buffer_.emplace(sample.t_ns, sample);

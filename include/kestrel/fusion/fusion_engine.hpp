@@ -155,6 +155,7 @@ struct RelativePoseMeasurement {
 struct FusionCounters {
   std::size_t imu_samples = 0;
   std::size_t imu_dropped_late = 0;       ///< arrived older than the processed time
+  std::size_t imu_before_start = 0;       ///< at or before a given initial state (not an error)
   std::size_t imu_dropped_invalid = 0;    ///< non-finite values
   std::size_t imu_out_of_range = 0;       ///< an axis beyond accel/gyro_range
   std::size_t imu_duplicate = 0;          ///< same time stamp as the previous sample
