@@ -312,7 +312,8 @@ void run_fuse(const FuseArgs& a) {
         io::format_seconds(bad->first.t_ns) + " s (" + bad->second + "; " +
         std::to_string(counters.implausible_outputs) + " implausible outputs): the IMU " +
         a.imu_path.string() + " and the odometry " + a.vo_path.string() +
-        " do not agree; nothing written (limits: max_speed_m_s, max_position_jump_m in --options)");
+        " do not agree; the trajectory is not written (limits: max_speed_m_s, "
+        "max_position_jump_m in --options)");
   }
   if (!engine.initialized()) {
     throw InputError(a.imu_path.string() + ": the IMU never held still for " +
@@ -354,7 +355,10 @@ void add_fuse_command(CLI::App& app) {
       "Fuse visual odometry (TUM camera poses) with an IMU (EuRoC CSV) in an error-state EKF "
       "with stochastic cloning (thesis 4.6); writes the body (IMU) pose in TUM format at the "
       "odometry's time stamps, or at IMU rate.");
-  cmd->add_option("--imu", a->imu_path, "EuRoC IMU CSV (imu0/data.csv)")->required();
+  cmd->add_option("--imu", a->imu_path,
+                  "EuRoC IMU CSV (imu0/data.csv); samples beyond the sensor's range are "
+                  "rejected, odometry more than imu_horizon_s past it refused (docs/fusion.md)")
+      ->required();
   cmd->add_option("--vo", a->vo_path, "odometry: TUM trajectory of the camera")->required();
   cmd->add_option("--vo-cov", a->vo_cov_path,
                   "per-frame covariance of each relative motion: 'timestamp' + 6 variances or "
@@ -377,7 +381,8 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_option("--options", a->options_path, "fusion options YAML (see docs/fusion.md)");
   cmd->add_option("--init", a->init_path,
                   "start from the pose of this trajectory (TUM or EuRoC, body frame, "
-                  "gravity-aligned world) at the first odometry time instead of a static start");
+                  "gravity-aligned world) at the first odometry time instead of a static start; "
+                  "it must cover that time");
   cmd->add_option("--out", a->out_path, "fused body trajectory (TUM)")->required();
   cmd->add_option("--states", a->states_path, "also write full states, sigmas and flags here");
   cmd->add_flag("--imu-rate", a->imu_rate, "output at every IMU sample");
