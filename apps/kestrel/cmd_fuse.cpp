@@ -209,12 +209,23 @@ void run_fuse(const FuseArgs& a) {
   }
 
   fusion::FusionEngine engine(options);
+  std::optional<TimeNs> init_t_ns;
   if (!a.init_path.empty()) {
     // A given state: the body pose of a ground-truth/trajectory file at the first VO time
     // (velocity from the neighbouring poses), biases zero.
     const Trajectory init = io::read_trajectory(a.init_path);
     if (init.size() < 2) throw InputError(a.init_path.string() + ": needs at least two poses");
     const TimeNs t0 = vo.front().t_ns;
+    // The state must be the pose at the odometry's start, not one taken from outside the
+    // initial trajectory (1 ms for stamps rounded in text files).
+    constexpr TimeNs kStampTolerance = 1'000'000;
+    if (t0 < init.front().t_ns - kStampTolerance || t0 > init.back().t_ns + kStampTolerance) {
+      throw InputError(a.init_path.string() + ": covers " + io::format_seconds(init.front().t_ns) +
+                       " s to " + io::format_seconds(init.back().t_ns) +
+                       " s, not the first odometry pose of " + a.vo_path.string() + " at " +
+                       io::format_seconds(t0) +
+                       " s; give an initial trajectory over the odometry's start");
+    }
     std::size_t i = 0;
     while (i + 1 < init.size() && init[i + 1].t_ns <= t0) ++i;
     const std::size_t j = std::min(i + 1, init.size() - 1);
@@ -226,6 +237,7 @@ void run_fuse(const FuseArgs& a) {
     x.v_world = (init[j].T_world_body.translation() - init[i0].T_world_body.translation()) /
                 ns_to_s(init[j].t_ns - init[i0].t_ns);
     engine.initialize(x);
+    init_t_ns = x.t_ns;
     std::cerr << "kestrel fuse: initial state from " << a.init_path.string() << " at "
               << io::format_seconds(x.t_ns) << " s\n";
   }
@@ -257,11 +269,23 @@ void run_fuse(const FuseArgs& a) {
 
   io::ImuCsvReader reader(a.imu_path);
   io::ImuSample s;
-  std::size_t mi = 0;
+  std::size_t mi = 0, imu_read = 0;
+  TimeNs imu_first_ns = 0, imu_last_ns = 0;
+  constexpr std::size_t kRejectionsShown = 5;
   const InterruptScope interrupt;  // Ctrl-C: the poses fused so far are written
   while (!interrupt.requested() && reader.next(s)) {
+    if (imu_read++ == 0) imu_first_ns = s.t_ns;
+    imu_last_ns = s.t_ns;
     while (mi < meas.size() && meas[mi].t_ns <= s.t_ns) engine.add_relative_pose(meas[mi++]);
+    const std::size_t out_of_range = engine.counters().imu_out_of_range;
     engine.add_imu(s);
+    if (engine.counters().imu_out_of_range > out_of_range &&
+        engine.counters().imu_out_of_range <= kRejectionsShown) {
+      std::cerr << "kestrel fuse: warning: " << a.imu_path.string() << ":" << reader.line_number()
+                << ": sample beyond the IMU's range (|gyro| <= " << options.gyro_range_rad_s
+                << " rad/s, |accel| <= " << options.accel_range_m_s2
+                << " m/s^2 per axis), rejected\n";
+    }
     consume(engine.poll(a.imu_rate));
   }
   const bool interrupted = interrupt.requested();
@@ -275,13 +299,63 @@ void run_fuse(const FuseArgs& a) {
                                      " poses)" + (a.states_path.empty() ? "" : " and " +
                                      a.states_path.string()));
   }
+  const fusion::FusionCounters& counters = engine.counters();
+  if (imu_read == 0) {
+    throw InputError(a.imu_path.string() +
+                     ": no IMU samples (the file is empty or holds only comments)");
+  }
+  if (counters.imu_samples == 0) {
+    std::string why = counters.describe_rejections();
+    if (counters.imu_before_start > 0) {
+      why += (why.empty() ? "" : ", ") + std::to_string(counters.imu_before_start) +
+             " samples before the initial state from " + a.init_path.string() + " at " +
+             io::format_seconds(init_t_ns.value_or(0)) + " s";
+    }
+    throw InputError(a.imu_path.string() + ": none of its " + std::to_string(imu_read) +
+                     " samples (" + io::format_seconds(imu_first_ns) + " s to " +
+                     io::format_seconds(imu_last_ns) + " s) could be used (" + why + ")");
+  }
+  if (init_t_ns && imu_first_ns > *init_t_ns + s_to_ns(options.imu_horizon_s)) {
+    throw InputError(a.imu_path.string() + ": starts at " + io::format_seconds(imu_first_ns) +
+                     " s, more than imu_horizon_s (" + std::to_string(options.imu_horizon_s) +
+                     " s) after the initial state from " + a.init_path.string() + " at " +
+                     io::format_seconds(*init_t_ns) + " s");
+  }
+  if (const auto& bad = engine.first_implausible()) {
+    throw std::runtime_error(
+        "fuse: the fused state is implausible for a micro aerial vehicle at t = " +
+        io::format_seconds(bad->first.t_ns) + " s (" + bad->second + "; " +
+        std::to_string(counters.implausible_outputs) + " implausible outputs): the IMU " +
+        a.imu_path.string() + " and the odometry " + a.vo_path.string() +
+        " do not agree; the trajectory is not written (limits: max_speed_m_s, "
+        "max_position_jump_m in --options)");
+  }
   if (!engine.initialized()) {
     throw InputError(a.imu_path.string() + ": the IMU never held still for " +
                      std::to_string(options.static_init_s) +
                      " s, so the static initialisation did not happen; give --init FILE");
   }
+  if (fused.empty()) {
+    throw InputError("fuse: no fused pose: the odometry " + a.vo_path.string() + " (" +
+                     io::format_seconds(vo.front().t_ns) + " s to " +
+                     io::format_seconds(vo.back().t_ns) + " s) and the IMU " + a.imu_path.string() +
+                     " (" + io::format_seconds(imu_first_ns) + " s to " +
+                     io::format_seconds(imu_last_ns) + " s) gave nothing to fuse (" +
+                     (counters.describe_rejections().empty() ? std::string("nothing rejected")
+                                                             : counters.describe_rejections()) +
+                     ")");
+  }
+  if (counters.measurements_outside_imu > 0) {
+    std::cerr << "kestrel fuse: warning: " << counters.measurements_outside_imu
+              << " odometry measurements lie more than imu_horizon_s (" << options.imu_horizon_s
+              << " s) after the last IMU sample (the IMU " << a.imu_path.string() << " covers "
+              << io::format_seconds(imu_first_ns) << " s to " << io::format_seconds(imu_last_ns)
+              << " s): refused, no pose written for them\n";
+  }
   io::write_tum_trajectory(a.out_path, fused, kFuseCommand, a.force);
-  std::cerr << "kestrel fuse: " << engine.counters().describe() << "\n";
+  std::cerr << "kestrel fuse: " << counters.describe() << "\n";
+  const std::string rejected = counters.describe_rejections();
+  std::cout << "rejected: " << (rejected.empty() ? "nothing" : rejected) << "\n";
   std::cout << "fused poses: " << fused.size() << " (" << dropout_outputs
             << " flagged vo_dropout), accepted updates: " << engine.counters().updates_accepted
             << "/" << meas.size() << ", wrote " << a.out_path.string() << std::endl;
@@ -296,7 +370,10 @@ void add_fuse_command(CLI::App& app) {
       "Fuse visual odometry (TUM camera poses) with an IMU (EuRoC CSV) in an error-state EKF "
       "with stochastic cloning (thesis 4.6); writes the body (IMU) pose in TUM format at the "
       "odometry's time stamps, or at IMU rate.");
-  cmd->add_option("--imu", a->imu_path, "EuRoC IMU CSV (imu0/data.csv)")->required();
+  cmd->add_option("--imu", a->imu_path,
+                  "EuRoC IMU CSV (imu0/data.csv); samples beyond the sensor's range are "
+                  "rejected, odometry more than imu_horizon_s past it refused (docs/fusion.md)")
+      ->required();
   cmd->add_option("--vo", a->vo_path, "odometry: TUM trajectory of the camera")->required();
   cmd->add_option("--vo-cov", a->vo_cov_path,
                   "per-frame covariance of each relative motion: 'timestamp' + 6 variances or "
@@ -319,7 +396,8 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_option("--options", a->options_path, "fusion options YAML (see docs/fusion.md)");
   cmd->add_option("--init", a->init_path,
                   "start from the pose of this trajectory (TUM or EuRoC, body frame, "
-                  "gravity-aligned world) at the first odometry time instead of a static start");
+                  "gravity-aligned world) at the first odometry time instead of a static start; "
+                  "it must cover that time");
   cmd->add_option("--out", a->out_path, "fused body trajectory (TUM)")->required();
   cmd->add_option("--states", a->states_path, "also write full states, sigmas and flags here");
   cmd->add_flag("--imu-rate", a->imu_rate, "output at every IMU sample");

@@ -44,6 +44,8 @@ void FusionOptions::set_imu_noise(const io::ImuNoise& imu) {
   noise.gyro_walk = imu.gyro_random_walk;
   noise.accel_noise = imu.accel_noise_density;
   noise.accel_walk = imu.accel_random_walk;
+  if (imu.accel_range_m_s2) accel_range_m_s2 = *imu.accel_range_m_s2;
+  if (imu.gyro_range_rad_s) gyro_range_rad_s = *imu.gyro_range_rad_s;
 }
 
 std::string FusionOptions::describe() const {
@@ -51,8 +53,10 @@ std::string FusionOptions::describe() const {
   s << "gyro_noise=" << noise.gyro_noise << " gyro_walk=" << noise.gyro_walk
     << " accel_noise=" << noise.accel_noise << " accel_walk=" << noise.accel_walk
     << " g=" << gravity_m_s2 << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
-    << "s max_imu_gap=" << max_imu_gap_s << "s reorder=" << reorder_window_s
-    << "s static_init=" << static_init_s
+    << "s max_imu_gap=" << max_imu_gap_s << "s accel_range=" << accel_range_m_s2
+    << "m/s^2 gyro_range=" << gyro_range_rad_s << "rad/s imu_horizon=" << imu_horizon_s
+    << "s max_speed=" << max_speed_m_s << "m/s max_jump=" << max_position_jump_m
+    << "m reorder=" << reorder_window_s << "s static_init=" << static_init_s
     << "s first_estimates=" << (first_estimate_jacobians ? "on" : "off")
     << " reanchor_after_gate=" << (reanchor_after_gate ? "on" : "off") << " T_body_cam.t=["
     << T_body_cam.translation().transpose() << "]";
@@ -73,6 +77,11 @@ void FusionOptions::validate() const {
   positive(dropout_timeout_s, "dropout_timeout_s");
   positive(max_imu_gap_s, "max_imu_gap_s");
   positive(static_init_s, "static_init_s");
+  positive(accel_range_m_s2, "accelerometer_range_m_s2");
+  positive(gyro_range_rad_s, "gyroscope_range_rad_s");
+  positive(imu_horizon_s, "imu_horizon_s");
+  positive(max_speed_m_s, "max_speed_m_s");
+  positive(max_position_jump_m, "max_position_jump_m");
   positive(init_sigma_p_m, "init_sigma_p_m");
   positive(init_sigma_roll_pitch_rad, "init_sigma_roll_pitch_rad");
   positive(init_sigma_yaw_rad, "init_sigma_yaw_rad");
@@ -107,18 +116,52 @@ std::string describe_flags(std::uint32_t flags) {
   add(kFlagImuGap, "imu_gap");
   add(kFlagRejected, "rejected");
   add(kFlagUpdated, "updated");
+  add(kFlagImplausible, "implausible");
   return s;
 }
 
 std::string FusionCounters::describe() const {
   std::ostringstream s;
   s << "imu=" << imu_samples << " imu_late=" << imu_dropped_late
-    << " imu_invalid=" << imu_dropped_invalid << " imu_gaps=" << imu_gaps
+    << " imu_before_start=" << imu_before_start << " imu_invalid=" << imu_dropped_invalid
+    << " imu_out_of_range=" << imu_out_of_range << " imu_duplicate=" << imu_duplicate
+    << " imu_gaps=" << imu_gaps << " imu_gaps_beyond_horizon=" << imu_gaps_beyond_horizon
     << " updates=" << updates_accepted << " gated=" << updates_gated
     << " invalid=" << updates_invalid << " no_reference=" << updates_no_reference
     << " vo_late=" << measurements_dropped_late << " vo_before_init=" << measurements_before_init
+    << " vo_outside_imu=" << measurements_outside_imu << " implausible=" << implausible_outputs
     << " mean_nis=" << mean_nis();
   return s.str();
+}
+
+std::string FusionCounters::describe_rejections() const {
+  std::string s;
+  auto add = [&](std::size_t n, const char* what) {
+    if (n == 0) return;
+    if (!s.empty()) s += ", ";
+    s += std::to_string(n) + " " + what;
+  };
+  add(imu_out_of_range, "IMU samples beyond the sensor's range");
+  add(imu_dropped_invalid, "non-finite IMU samples");
+  add(imu_dropped_late, "IMU samples older than the processed time");
+  add(imu_duplicate, "IMU samples repeating a time stamp");
+  add(imu_gaps_beyond_horizon, "IMU gaps longer than the horizon");
+  add(measurements_outside_imu, "odometry measurements outside the IMU's time coverage");
+  add(measurements_before_init, "odometry measurements before the initialisation");
+  add(measurements_dropped_late, "late odometry measurements");
+  add(updates_gated, "odometry updates failing the chi-square gate");
+  add(updates_invalid, "invalid odometry updates");
+  add(implausible_outputs, "implausible outputs");
+  return s;
+}
+
+bool imu_sample_in_range(const io::ImuSample& s, const FusionOptions& options) {
+  // Negated comparisons: NaN is out of range.
+  for (int k = 0; k < 3; ++k) {
+    if (!(std::abs(s.accel_m_s2[k]) <= options.accel_range_m_s2)) return false;
+    if (!(std::abs(s.gyro_rad_s[k]) <= options.gyro_range_rad_s)) return false;
+  }
+  return true;
 }
 
 // ---------------------------------------------------------------- static initialisation
@@ -194,8 +237,13 @@ void FusionEngine::add_imu(const io::ImuSample& sample) {
     ++counters_.imu_dropped_invalid;
     return;
   }
+  if (!imu_sample_in_range(sample, options_)) {
+    ++counters_.imu_out_of_range;
+    return;
+  }
   if (sample.t_ns <= processed_ns_ && (initialized_ || last_imu_)) {
-    ++counters_.imu_dropped_late;
+    // Before the first sample after a given initial state: not late, only before the start.
+    ++(last_imu_ ? counters_.imu_dropped_late : counters_.imu_before_start);
     return;
   }
   imu_buffer_.emplace(sample.t_ns, sample);
@@ -275,6 +323,12 @@ void FusionEngine::propagate_to(TimeNs t_ns) {
 }
 
 void FusionEngine::process_imu(const io::ImuSample& s, bool imu_rate, std::vector<FusedState>& out) {
+  // Two samples with one time stamp: the second is not a new reading of the interval.
+  if (s.t_ns == last_imu_t_ns_) {
+    ++counters_.imu_duplicate;
+    return;
+  }
+  last_imu_t_ns_ = s.t_ns;
   ++counters_.imu_samples;
   if (!initialized_) {
     if (try_static_init(s)) last_imu_ = s;
@@ -285,12 +339,15 @@ void FusionEngine::process_imu(const io::ImuSample& s, bool imu_rate, std::vecto
     last_imu_ = s;
     return;
   }
+  // The first sample after a given state bridges the time since that state.
+  const TimeNs gap_from = last_imu_ ? last_imu_->t_ns : ekf_.state().t_ns;
   if (!last_imu_) last_imu_ = s;
-  const double gap_s = ns_to_s(s.t_ns - last_imu_->t_ns);
+  const double gap_s = ns_to_s(s.t_ns - gap_from);
   if (gap_s > options_.max_imu_gap_s) {
     ++counters_.imu_gaps;
     sticky_flags_ |= kFlagImuGap;
   }
+  if (gap_s > options_.imu_horizon_s) ++counters_.imu_gaps_beyond_horizon;
   const TimeNs t0 = ekf_.state().t_ns;
   if (s.t_ns > t0) {
     const ImuReading reading = mean_reading(*last_imu_, s);
@@ -317,6 +374,12 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
   }
   if (m.t_ns < ekf_.state().t_ns) {
     ++counters_.measurements_dropped_late;
+    return;
+  }
+  // Outside the IMU's coverage: the state at m.t_ns would be the last reading held for longer
+  // than the horizon. Refused, with no output; the next measurement then has no reference.
+  if (!last_imu_ || ns_to_s(m.t_ns - last_imu_->t_ns) > options_.imu_horizon_s) {
+    ++counters_.measurements_outside_imu;
     return;
   }
   propagate_to(m.t_ns);
@@ -396,8 +459,34 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
 }
 
 void FusionEngine::emit(bool at_odometry, std::vector<FusedState>& out) {
-  out.push_back(output(at_odometry));
+  FusedState f = output(at_odometry);
+  if (std::string why = implausibility(f); !why.empty()) {
+    f.flags |= kFlagImplausible;
+    ++counters_.implausible_outputs;
+    if (!first_implausible_) first_implausible_.emplace(f, std::move(why));
+  }
+  last_output_ = f;
+  out.push_back(f);
   sticky_flags_ = kFlagNone;  // event flags are reported once, on the next output
+}
+
+std::string FusionEngine::implausibility(const FusedState& f) const {
+  if (last_output_) {
+    const double dt = ns_to_s(f.t_ns - last_output_->t_ns);
+    const double step = (f.state.p_world - last_output_->state.p_world).norm();
+    const double bound = options_.max_speed_m_s * std::max(0.0, dt) + options_.max_position_jump_m;
+    if (step > bound) {
+      return "position moved " + std::to_string(step) + " m in " + std::to_string(dt) +
+             " s, more than max_speed_m_s * dt + max_position_jump_m = " + std::to_string(bound) +
+             " m";
+    }
+  }
+  const double speed = f.state.v_world.norm();
+  if (speed > options_.max_speed_m_s) {
+    return "speed " + std::to_string(speed) + " m/s above max_speed_m_s " +
+           std::to_string(options_.max_speed_m_s);
+  }
+  return {};
 }
 
 FusedState FusionEngine::output(bool at_odometry) const {

@@ -37,6 +37,12 @@ ImuNoise load_imu_noise(const fs::path& sensor_yaml) {
   n.accel_noise_density = positive_field(root, "accelerometer_noise_density", sensor_yaml);
   n.accel_random_walk = positive_field(root, "accelerometer_random_walk", sensor_yaml);
   n.rate_hz = positive_field(root, "rate_hz", sensor_yaml);
+  if (root["accelerometer_range_m_s2"]) {
+    n.accel_range_m_s2 = positive_field(root, "accelerometer_range_m_s2", sensor_yaml);
+  }
+  if (root["gyroscope_range_rad_s"]) {
+    n.gyro_range_rad_s = positive_field(root, "gyroscope_range_rad_s", sensor_yaml);
+  }
   if (root["T_BS"]) {
     std::vector<double> m;
     try {

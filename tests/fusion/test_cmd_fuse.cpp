@@ -224,6 +224,212 @@ TEST_F(CmdFuse, FrameLogGivesKeyframeMeasurementsAsAccurateAsConsecutivePoses) {
   EXPECT_NE(both.err.find("exclude each other"), std::string::npos) << both.err;
 }
 
+// The fused positions of a TUM file, by time stamp.
+std::vector<std::pair<double, Eigen::Vector3d>> read_positions(const fs::path& path) {
+  std::vector<std::pair<double, Eigen::Vector3d>> out;
+  std::ifstream in(path);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    double t, x, y, z;
+    if (ls >> t >> x >> y >> z) out.emplace_back(t, Eigen::Vector3d(x, y, z));
+  }
+  return out;
+}
+
+// Copies the IMU CSV, passing each data row through `edit(index, row)` (false drops the row).
+template <typename Edit>
+void rewrite_imu(const fs::path& from, const fs::path& to, Edit edit) {
+  std::ifstream in(from);
+  std::ofstream out(to);
+  std::size_t k = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (!line.empty() && line[0] == '#') {
+      out << line << "\n";
+      continue;
+    }
+    if (edit(k++, line)) out << line << "\n";
+  }
+}
+
+// One accelerometer value of 1e3 m/s^2 (102 g, beyond the default 16 g full scale) at 3 s:
+// rejected, named in the summary and in a warning with its line, and the fused poses stay on
+// those of the clean IMU. With the range opened (--options) the same file moves them.
+TEST_F(CmdFuse, SpikedImuSampleIsRejectedAndTheFusedPosesStayOnTheCleanOnes) {
+  const RunResult clean = run(common_args(dir_ / "imu.yaml"));
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  EXPECT_NE(clean.out.find("rejected: nothing"), std::string::npos) << clean.out;
+  fs::rename(dir_ / "fused.txt", dir_ / "clean.txt");
+  std::size_t spiked_line = 0;
+  rewrite_imu(dir_ / "imu.csv", dir_ / "imu_spiked.csv", [&](std::size_t k, std::string& row) {
+    if (k == 600) {  // t = 3 s; "t,wx,wy,wz,ax,..." -> ax = 1000
+      std::vector<std::string> f;
+      std::istringstream ss(row);
+      for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+      f[4] = "1000";
+      row.clear();
+      for (std::size_t i = 0; i < f.size(); ++i) row += (i ? "," : "") + f[i];
+      spiked_line = k + 2;  // one header line, 1-based
+    }
+    return true;
+  });
+  const std::string args = "fuse --imu " + quoted((dir_ / "imu_spiked.csv").string()) + " --vo " +
+                           quoted((dir_ / "vo.txt").string()) + " --calib " +
+                           quoted((dir_ / "imu.yaml").string()) + " --init " +
+                           quoted((dir_ / "init.txt").string()) + " --out " +
+                           quoted((dir_ / "fused.txt").string());
+  const RunResult spiked = run(args);
+  ASSERT_EQ(spiked.exit_code, 0) << spiked.err;
+  EXPECT_NE(spiked.out.find("rejected: 1 IMU samples beyond the sensor's range"), std::string::npos)
+      << spiked.out;
+  EXPECT_NE(spiked.err.find("imu_spiked.csv:" + std::to_string(spiked_line) + ": sample beyond"),
+            std::string::npos)
+      << spiked.err;
+  const auto a = read_positions(dir_ / "clean.txt");
+  const auto b = read_positions(dir_ / "fused.txt");
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_EQ(a.size(), truth_.size());
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    worst = std::max(worst, (a[i].second - b[i].second).norm());
+  std::cout << "spiked IMU: fused poses within " << worst << " m of the clean run's\n";
+  EXPECT_LT(worst, 0.005);
+
+  std::ofstream(dir_ / "open.yaml") << "accelerometer_range_m_s2: 1.0e6\n";
+  const RunResult open = run(args + " --force --options " + quoted((dir_ / "open.yaml").string()));
+  ASSERT_EQ(open.exit_code, 0) << open.err;
+  const auto c = read_positions(dir_ / "fused.txt");
+  ASSERT_EQ(a.size(), c.size());
+  double worst_open = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    worst_open = std::max(worst_open, (a[i].second - c[i].second).norm());
+  std::cout << "spiked IMU, range opened: " << worst_open << " m\n";
+  EXPECT_GT(worst_open, 0.05);
+}
+
+// The IMU ends at 3 s of the 6 s of odometry: the measurements more than imu_horizon_s (0.5 s)
+// after its last sample are refused (no pose written for them, a warning and the summary say
+// so), and the poses written stay as close to the truth as in the full run.
+TEST_F(CmdFuse, ImuEndingEarlyRefusesTheOdometryBeyondTheHorizon) {
+  const TimeNs imu_end = kT0 + s_to_ns(3.0);
+  rewrite_imu(dir_ / "imu.csv", dir_ / "imu_short.csv", [&](std::size_t, const std::string& row) {
+    return std::stoll(row.substr(0, row.find(','))) <= imu_end;
+  });
+  const RunResult r =
+      run("fuse --imu " + quoted((dir_ / "imu_short.csv").string()) + " --vo " +
+          quoted((dir_ / "vo.txt").string()) + " --calib " + quoted((dir_ / "imu.yaml").string()) +
+          " --init " + quoted((dir_ / "init.txt").string()) + " --out " +
+          quoted((dir_ / "fused.txt").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::size_t beyond = 0;
+  for (const auto& [t, T] : truth_) beyond += t > imu_end + s_to_ns(0.5) ? 1 : 0;
+  ASSERT_GT(beyond, 0u);
+  EXPECT_NE(
+      r.out.find(std::to_string(beyond) + " odometry measurements outside the IMU's time coverage"),
+      std::string::npos)
+      << r.out;
+  EXPECT_NE(r.err.find("refused, no pose written"), std::string::npos) << r.err;
+  const auto fused = read_positions(dir_ / "fused.txt");
+  EXPECT_EQ(fused.size(), truth_.size() - beyond);
+  double worst = 0.0;
+  for (const auto& [t, p] : fused) {
+    EXPECT_LE(s_to_ns(t), imu_end + s_to_ns(0.5) + 1000);
+    for (const auto& [tt, T] : truth_) {
+      if (std::llabs(tt - s_to_ns(t)) <= 1'000'000)
+        worst = std::max(worst, (p - T.translation()).norm());
+    }
+  }
+  EXPECT_LT(worst, 0.45);  // the bound of the full run
+}
+
+// Odometry (and its initial state) that starts after the IMU has ended: nothing can be fused,
+// an error naming the IMU file, not poses extrapolated on its last reading with exit 0.
+TEST_F(CmdFuse, OdometryStartingAfterTheImuIsAnError) {
+  rewrite_imu(dir_ / "imu.csv", dir_ / "imu_first.csv", [&](std::size_t, const std::string& row) {
+    return std::stoll(row.substr(0, row.find(','))) <= kT0 + s_to_ns(0.5);
+  });
+  {
+    std::ofstream vo(dir_ / "vo_late.txt");
+    std::ofstream init(dir_ / "init_long.txt");
+    for (TimeNs t = 0; t <= s_to_ns(6.0); t += s_to_ns(0.05)) {
+      init << tum_line(kT0 + t, flight_.at(ns_to_s(t)).T_world_body);
+      if (t >= s_to_ns(2.0))
+        vo << tum_line(kT0 + t, flight_.at(ns_to_s(t)).T_world_body * sim_.T_body_cam);
+    }
+  }
+  const RunResult r = run("fuse --imu " + quoted((dir_ / "imu_first.csv").string()) + " --vo " +
+                          quoted((dir_ / "vo_late.txt").string()) + " --calib " +
+                          quoted((dir_ / "imu.yaml").string()) + " --init " +
+                          quoted((dir_ / "init_long.txt").string()) + " --out " +
+                          quoted((dir_ / "fused.txt").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find((dir_ / "imu_first.csv").string() + ": none of its 101 samples"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("before the initial state"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "fused.txt"));
+}
+
+TEST_F(CmdFuse, EmptyImuFileIsAnErrorNamingIt) {
+  std::ofstream(dir_ / "empty.csv") << "#timestamp [ns],w_x,w_y,w_z,a_x,a_y,a_z\n";
+  const RunResult r =
+      run("fuse --imu " + quoted((dir_ / "empty.csv").string()) + " --vo " +
+          quoted((dir_ / "vo.txt").string()) + " --calib " + quoted((dir_ / "imu.yaml").string()) +
+          " --out " + quoted((dir_ / "fused.txt").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find((dir_ / "empty.csv").string() + ": no IMU samples"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("never held still"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "fused.txt"));
+}
+
+// An initial trajectory that starts 3 s into the odometry does not give its first pose.
+TEST_F(CmdFuse, InitNotCoveringTheOdometryIsAnError) {
+  {
+    std::ofstream init(dir_ / "late_init.txt");
+    for (TimeNs t = s_to_ns(3.0); t <= s_to_ns(3.1); t += s_to_ns(0.005)) {
+      init << tum_line(kT0 + t, flight_.at(ns_to_s(t)).T_world_body);
+    }
+  }
+  const RunResult r =
+      run("fuse --imu " + quoted((dir_ / "imu.csv").string()) + " --vo " +
+          quoted((dir_ / "vo.txt").string()) + " --calib " + quoted((dir_ / "imu.yaml").string()) +
+          " --init " + quoted((dir_ / "late_init.txt").string()) + " --out " +
+          quoted((dir_ / "fused.txt").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find((dir_ / "late_init.txt").string() + ": covers"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("not the first odometry pose"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "fused.txt"));
+  // The same file is fine for odometry that starts inside it.
+  const RunResult ok = run(common_args(dir_ / "imu.yaml"));
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+}
+
+// An accelerometer reading 10 g more along x than it should from 1 s on (within the sensor's
+// range): the fused speed passes any MAV's, and the run is an error, not exit 0.
+TEST_F(CmdFuse, ImplausibleResultIsAnErrorNotExitZero) {
+  rewrite_imu(dir_ / "imu.csv", dir_ / "imu_push.csv", [&](std::size_t k, std::string& row) {
+    if (k >= 200) {
+      std::vector<std::string> f;
+      std::istringstream ss(row);
+      for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+      f[4] = std::to_string(std::stod(f[4]) + 98.0);
+      row.clear();
+      for (std::size_t i = 0; i < f.size(); ++i) row += (i ? "," : "") + f[i];
+    }
+    return true;
+  });
+  const RunResult r =
+      run("fuse --imu " + quoted((dir_ / "imu_push.csv").string()) + " --vo " +
+          quoted((dir_ / "vo.txt").string()) + " --calib " + quoted((dir_ / "imu.yaml").string()) +
+          " --init " + quoted((dir_ / "init.txt").string()) + " --out " +
+          quoted((dir_ / "fused.txt").string()));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("implausible"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("imu_push.csv"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "fused.txt"));
+}
+
 TEST_F(CmdFuse, MissingCalibrationFieldIsAClearError) {
   const RunResult r = run(common_args(dir_ / "imu_missing.yaml"));
   EXPECT_NE(r.exit_code, 0);

@@ -7,10 +7,12 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "kestrel/fusion/stochastic_cloning_ekf.hpp"
@@ -32,6 +34,22 @@ struct FusionOptions {
   /// Consecutive IMU samples further apart than this set the `imu_gap` flag (the step is
   /// still propagated, in sub-steps of the nominal period, with growing covariance).
   double max_imu_gap_s = 0.05;
+  /// IMU full scale per axis: a sample with an axis beyond it (a saturated or corrupt
+  /// reading) is rejected, counted. Defaults +-16 g and +-2000 deg/s, the widest full-scale
+  /// settings of common MEMS IMUs (ADIS16448 of EuRoC: +-18 g, +-1000 deg/s); an IMU sensor
+  /// YAML with `accelerometer_range_m_s2` / `gyroscope_range_rad_s` replaces them.
+  double accel_range_m_s2 = 16.0 * 9.80665;
+  double gyro_range_rad_s = 2000.0 * 3.14159265358979323846 / 180.0;
+  /// The longest the filter is carried on the IMU alone past its last sample: an odometry
+  /// measurement later than this after the last IMU sample (past the IMU's end, before its
+  /// start, or inside a longer gap) is refused, counted, and gives no output; an IMU gap
+  /// longer than this is counted apart (`imu_gaps_beyond_horizon`).
+  double imu_horizon_s = 0.5;
+  /// Plausibility of an output for a micro aerial vehicle: a speed above max_speed_m_s, or a
+  /// step between consecutive outputs longer than max_speed_m_s * dt + max_position_jump_m,
+  /// flags it `implausible` (counted; `kestrel fuse` stops with an error).
+  double max_speed_m_s = 50.0;
+  double max_position_jump_m = 2.0;
   /// Inputs are held this long (in data time, relative to the newest input) so that late or
   /// out-of-order samples are processed in time order. Older arrivals are dropped, counted.
   double reorder_window_s = 0.02;
@@ -68,6 +86,11 @@ struct FusionOptions {
     v("gate_probability", gate_probability);
     v("dropout_timeout_s", dropout_timeout_s);
     v("max_imu_gap_s", max_imu_gap_s);
+    v("accelerometer_range_m_s2", accel_range_m_s2);
+    v("gyroscope_range_rad_s", gyro_range_rad_s);
+    v("imu_horizon_s", imu_horizon_s);
+    v("max_speed_m_s", max_speed_m_s);
+    v("max_position_jump_m", max_position_jump_m);
     v("reorder_window_s", reorder_window_s);
     v("static_init_s", static_init_s);
     v("static_max_gyro_std_rad_s", static_max_gyro_std_rad_s);
@@ -84,7 +107,7 @@ struct FusionOptions {
 
   /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
   static FusionOptions load_yaml(const std::filesystem::path& path);
-  /// Takes the noise densities and T_BS-free fields of an EuRoC IMU sensor.yaml.
+  /// Takes the noise densities of an EuRoC IMU sensor.yaml, and its ranges where it has them.
   void set_imu_noise(const io::ImuNoise& imu);
   /// One line for logs.
   [[nodiscard]] std::string describe() const;
@@ -102,6 +125,7 @@ enum FusionFlag : std::uint32_t {
   kFlagImuGap = 1u << 1,       ///< the last IMU step bridged a gap > max_imu_gap_s
   kFlagRejected = 1u << 2,     ///< the last odometry measurement was rejected
   kFlagUpdated = 1u << 3,      ///< this output follows an accepted update
+  kFlagImplausible = 1u << 4,  ///< speed or position step beyond FusionOptions' MAV limits
 };
 std::string describe_flags(std::uint32_t flags);
 
@@ -131,14 +155,20 @@ struct RelativePoseMeasurement {
 struct FusionCounters {
   std::size_t imu_samples = 0;
   std::size_t imu_dropped_late = 0;       ///< arrived older than the processed time
+  std::size_t imu_before_start = 0;       ///< at or before a given initial state (not an error)
   std::size_t imu_dropped_invalid = 0;    ///< non-finite values
+  std::size_t imu_out_of_range = 0;       ///< an axis beyond accel/gyro_range
+  std::size_t imu_duplicate = 0;          ///< same time stamp as the previous sample
   std::size_t imu_gaps = 0;
+  std::size_t imu_gaps_beyond_horizon = 0;  ///< gaps longer than imu_horizon_s
   std::size_t updates_accepted = 0;
   std::size_t updates_gated = 0;
   std::size_t updates_invalid = 0;
   std::size_t updates_no_reference = 0;   ///< reference time was not the clone's
   std::size_t measurements_dropped_late = 0;
   std::size_t measurements_before_init = 0;
+  std::size_t measurements_outside_imu = 0;  ///< later than imu_horizon_s after the last IMU sample
+  std::size_t implausible_outputs = 0;
   /// Sum of r^T S^-1 r over the accepted updates: its mean (mean_nis()) is 6 for a consistent
   /// filter, above it when the filter trusts the IMU or the odometry more than they deserve.
   double nis_sum_accepted = 0.0;
@@ -146,6 +176,8 @@ struct FusionCounters {
     return updates_accepted > 0 ? nis_sum_accepted / static_cast<double>(updates_accepted) : 0.0;
   }
   [[nodiscard]] std::string describe() const;
+  /// What was rejected, per reason, in words ("" if nothing): for a run's summary.
+  [[nodiscard]] std::string describe_rejections() const;
 };
 
 class FusionEngine {
@@ -156,7 +188,8 @@ class FusionEngine {
   /// covariance is options().initial_covariance().
   void initialize(const NominalState& state);
 
-  /// Inputs, in any order within reorder_window_s. Non-finite samples are dropped, counted.
+  /// Inputs, in any order within reorder_window_s. Non-finite samples, and samples beyond the
+  /// IMU's range, are dropped, counted.
   void add_imu(const io::ImuSample& sample);
   void add_relative_pose(const RelativePoseMeasurement& measurement);
 
@@ -170,6 +203,10 @@ class FusionEngine {
   [[nodiscard]] const StochasticCloningEkf& filter() const { return ekf_; }
   [[nodiscard]] const FusionCounters& counters() const { return counters_; }
   [[nodiscard]] const FusionOptions& options() const { return options_; }
+  /// The first implausible output (kFlagImplausible), with what was implausible in words.
+  [[nodiscard]] const std::optional<std::pair<FusedState, std::string>>& first_implausible() const {
+    return first_implausible_;
+  }
   /// The UpdateResult of the last odometry measurement processed.
   [[nodiscard]] const std::optional<UpdateResult>& last_update() const { return last_update_; }
 
@@ -181,6 +218,7 @@ class FusionEngine {
   bool try_static_init(const io::ImuSample& s);
   FusedState output(bool at_odometry) const;
   void emit(bool at_odometry, std::vector<FusedState>& out);
+  [[nodiscard]] std::string implausibility(const FusedState& f) const;
 
   FusionOptions options_;
   StochasticCloningEkf ekf_;
@@ -191,6 +229,9 @@ class FusionEngine {
   TimeNs newest_input_ns_ = std::numeric_limits<TimeNs>::min();
   TimeNs processed_ns_ = std::numeric_limits<TimeNs>::min();
   std::optional<io::ImuSample> last_imu_;
+  TimeNs last_imu_t_ns_ = std::numeric_limits<TimeNs>::min();  ///< last sample processed
+  std::optional<FusedState> last_output_;
+  std::optional<std::pair<FusedState, std::string>> first_implausible_;
   std::deque<io::ImuSample> init_window_;
   TimeNs last_accepted_update_ns_ = 0;
   std::uint32_t sticky_flags_ = kFlagNone;
@@ -208,6 +249,9 @@ class FusionEngine {
   std::optional<KeyframeAnchor> anchor_;
   int gated_in_a_row_ = 0;  ///< gated measurements from the kept keyframe since the last accepted
 };
+
+/// Whether every axis of a sample is finite and within the options' full scale.
+bool imu_sample_in_range(const io::ImuSample& s, const FusionOptions& options);
 
 /// Static initialisation from still IMU samples: roll and pitch from the mean specific force
 /// (yaw 0), gyro bias from the mean rate; nullopt if the window is not still enough.

@@ -29,6 +29,10 @@ struct ImuNoise {
   double accel_random_walk = 0.0;    ///< m/s^3/sqrt(Hz)
   double rate_hz = 0.0;
   SE3 T_body_imu;  ///< EuRoC T_BS (identity for the EuRoC IMU, which defines the body)
+  /// Full scale per axis, where the file gives it (`accelerometer_range_m_s2`,
+  /// `gyroscope_range_rad_s`; not EuRoC fields, so usually absent).
+  std::optional<double> accel_range_m_s2;
+  std::optional<double> gyro_range_rad_s;
 };
 
 /// Loads an EuRoC IMU sensor.yaml; a missing field is an InputError naming it.
@@ -41,6 +45,8 @@ class ImuCsvReader {
   /// The next sample; false at the end. Throws InputError "FILE:LINE: ..." on a malformed
   /// line, a non-finite value, or a time stamp that does not increase.
   bool next(ImuSample& sample);
+  /// The file's line of the last sample returned (1-based), for messages about it.
+  [[nodiscard]] std::size_t line_number() const { return reader_.line_number(); }
 
  private:
   TextLineReader reader_;
