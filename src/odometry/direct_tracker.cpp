@@ -20,11 +20,11 @@
 #include "kestrel/image/rolling_shutter.hpp"
 #include "kestrel/odometry/alignment_kernels.hpp"
 #include "kestrel/odometry/disparity_space.hpp"
+#include "kestrel/odometry/level_solver.hpp"
 #include "kestrel/odometry/point_selection.hpp"
+#include "kestrel/odometry/residual_terms.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
 #include "kestrel/odometry/warp_jacobian.hpp"
-#include "level_solver.hpp"
-#include "residual_terms.hpp"
 
 namespace kestrel::odometry {
 
@@ -283,8 +283,9 @@ struct TrackerAccess {
           std::max(max_count, build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l));
     }
     if (m.abs_residual.size() < max_count) m.abs_residual.resize(max_count);
-    m.photometric_buffers.reserve(max_count, false);
-    m.geometric_buffers.reserve(max_count, true);
+    m.photometric_buffers.reserve(max_count);
+    m.geometric_buffers.reserve(max_count);
+    m.geometric_buffers.reserve_jacobian(max_count);
     m.has_ref = true;
   }
 

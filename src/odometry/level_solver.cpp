@@ -1,5 +1,5 @@
 // Robust inverse-compositional Gauss-Newton on one pyramid level (level_solver.hpp).
-#include "level_solver.hpp"
+#include "kestrel/odometry/level_solver.hpp"
 
 #include <Eigen/Cholesky>
 #include <cmath>
@@ -34,7 +34,7 @@ LevelEnd LevelSolver::run() {
     }
     halvings_ = 0;
     // Robust scales (thesis eq. 3.40), each frozen once it settles (thesis 3.10).
-    for (ResidualTerm* t : terms_) t->update_scale(it == 0, scratch_);
+    for (ResidualTerm* t : terms_) t->update_scale(it, scratch_);
     const double cost = weigh();
     if (!solve_and_step(cost)) return LevelEnd::kFailed;
     if (step_converged()) return LevelEnd::kConverged;

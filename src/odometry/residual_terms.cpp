@@ -1,5 +1,5 @@
 // The residual terms of the direct alignment (residual_terms.hpp).
-#include "residual_terms.hpp"
+#include "kestrel/odometry/residual_terms.hpp"
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -9,13 +9,16 @@
 
 namespace kestrel::odometry {
 
-void TermBuffers::reserve(std::size_t n, bool with_jacobian) {
+void TermBuffers::reserve(std::size_t n) {
   if (residual.size() < n) {
     residual.resize(n);
     weight.resize(n);
     valid.resize(n);
   }
-  if (with_jacobian && jac[0].size() < n) {
+}
+
+void TermBuffers::reserve_jacobian(std::size_t n) {
+  if (jac[0].size() < n) {
     for (auto& col : jac) col.assign(n, 0.0F);
   }
 }
@@ -28,14 +31,15 @@ void TermBuffers::pad(int count) {
   }
 }
 
-void ResidualTerm::update_scale(bool first, float* scratch) {
+void ResidualTerm::update_scale(int iteration, float* scratch) {
   if (frozen_) return;
   const kernels::AbsMedian med =
       kernels::abs_median(b_.residual.data(), b_.valid.data(), count_, median_hint_, scratch);
   median_hint_ = med.median;
   const double s =
       std::max(robust_sigma_from_median(med.median, med.valid, rule_.params), rule_.floor);
-  if (!first && std::fabs(s - sigma_) < rule_.freeze_abs + rule_.freeze_rel * s) frozen_ = true;
+  if (iteration > 0 && std::fabs(s - sigma_) < rule_.freeze_abs + rule_.freeze_rel * s)
+    frozen_ = true;
   sigma_ = s;
 }
 

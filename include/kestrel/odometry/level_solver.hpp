@@ -1,13 +1,13 @@
 // One pyramid level of the direct alignment: robust inverse-compositional Gauss-Newton over a
 // list of residual terms (thesis 3.6-3.10). The convergence and cost-increase rules live here
-// and nowhere else. Private to the odometry module.
+// and nowhere else.
 #pragma once
 
 #include <span>
 
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "kestrel/odometry/direct_tracker_options.hpp"
-#include "residual_terms.hpp"
+#include "kestrel/odometry/residual_terms.hpp"
 
 namespace kestrel::odometry {
 

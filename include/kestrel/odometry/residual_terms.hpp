@@ -2,7 +2,7 @@
 // Jacobian and robust scale, behind one interface the level solver (level_solver.hpp) iterates
 // over: the photometric term with gain and bias (RGB-D or disparity-space points alike: the
 // reference builder already put the points and their Jacobians in the right space) and the
-// point-to-plane geometric term. Private to the odometry module.
+// point-to-plane geometric term. A new kind of residual is a new ResidualTerm.
 #pragma once
 
 #include <array>
@@ -31,8 +31,10 @@ struct TermBuffers {
   /// Jacobian columns of a term whose Jacobian depends on the estimate (point-to-plane).
   std::array<std::vector<float>, 6> jac;
 
-  /// Grows the arrays to `n` entries (never shrinks); `with_jacobian` also the columns.
-  void reserve(std::size_t n, bool with_jacobian);
+  /// Grows the arrays to `n` entries (never shrinks).
+  void reserve(std::size_t n);
+  /// Grows the Jacobian columns to `n` entries (never shrinks).
+  void reserve_jacobian(std::size_t n);
   /// Zero residuals and weights past the last point: the SIMD kernels read whole vectors.
   void pad(int count);
 };
@@ -68,9 +70,9 @@ class ResidualTerm {
   /// Adds the term's J^T W J and J^T W r.
   virtual void accumulate(Matrix8d& H, Vector8d& g) const = 0;
 
-  /// Re-estimates the robust scale unless it is frozen; `first`: the level's first iteration
-  /// (never frozen there). `scratch` has room for the level's points.
-  void update_scale(bool first, float* scratch);
+  /// Re-estimates the robust scale unless it is frozen (never on the level's first iteration,
+  /// 0). `scratch` has room for the level's points.
+  void update_scale(int iteration, float* scratch);
 
   [[nodiscard]] double sigma() const { return sigma_; }
   [[nodiscard]] int valid() const { return valid_; }      ///< at the last evaluation
