@@ -190,37 +190,24 @@ int PointToPlaneTerm::evaluate_shifted(const SE3& T_cur_ref) {
 }
 
 // Points with a normal whose sample is missing cost the maximum, like photometric points
-// outside the image; points without a normal take no part.
+// outside the image; points without a normal take no part (they are invalid, so the kernel
+// counts each at the maximum: taken off again).
+double PointToPlaneTerm::cost_without_normals() const {
+  return static_cast<double>(c_ * c_ / 6.0F) * (L_.count - L_.normal_count);
+}
+
 double PointToPlaneTerm::cost() const {
-  const auto inv_sg = static_cast<float>(1.0 / sigma_);
-  const float max_cost = c_ * c_ / 6.0F;
-  double cost = 0.0;
-  const float* rg = b_.residual.data();
-  const std::uint8_t* vg = b_.valid.data();
-  for (int i = 0; i < L_.count; ++i) {
-    if (vg[i]) {
-      cost += static_cast<double>(tukey_cost(rg[i] * inv_sg, c_));
-    } else if (L_.has_normal[static_cast<std::size_t>(i)]) {
-      cost += static_cast<double>(max_cost);
-    }
-  }
-  return cost;
+  return kernels::tukey_cost_sum(b_.residual.data(), b_.valid.data(), count_,
+                                 static_cast<float>(1.0 / sigma_), c_) -
+         cost_without_normals();
 }
 
 double PointToPlaneTerm::weigh() {
-  const auto inv_sg = static_cast<float>(1.0 / sigma_);
-  const float scale = inv_sg * inv_sg;
-  const float* rg = b_.residual.data();
-  const std::uint8_t* vg = b_.valid.data();
-  float* wg = b_.weight.data();
-  int inliers = 0;
-  for (int i = 0; i < L_.count; ++i) {
-    const float u = rg[i] * inv_sg;
-    wg[i] = vg[i] ? tukey_weight(u, c_) * scale : 0.0F;
-    inliers += (vg[i] && std::fabs(u) < c_) ? 1 : 0;
-  }
-  inliers_ = inliers;
-  return cost();
+  const kernels::WeightSums sums =
+      kernels::tukey_weights(b_.residual.data(), b_.valid.data(), count_,
+                             static_cast<float>(1.0 / sigma_), c_, b_.weight.data());
+  inliers_ = sums.inliers;
+  return sums.cost - cost_without_normals();
 }
 
 void PointToPlaneTerm::accumulate(Matrix8d& H, Vector8d& g) const {

@@ -129,6 +129,8 @@ class PointToPlaneTerm final : public ResidualTerm {
 
  private:
   int evaluate_shifted(const SE3& T_cur_ref);
+  /// What the cost kernel counts for the points without a normal (the Tukey maximum each).
+  [[nodiscard]] double cost_without_normals() const;
 
   const ReferenceLevel& L_;
   const cv::Mat& depth_;
