@@ -3,6 +3,13 @@ add_library(kestrel_options INTERFACE)
 target_compile_options(kestrel_options INTERFACE
   -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wcast-align -Wunused
   -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2)
+# Clang's -Wdouble-promotion also flags every float widened to double by an initialisation or
+# an argument (`double z = z_row[u]`, cv::Scalar(float, ...)), which GCC's flags only inside
+# arithmetic: 24 warnings in the fuzz preset's clang build, none a loss of precision (widening
+# loses none). GCC builds keep the warning.
+if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+  target_compile_options(kestrel_options INTERFACE -Wno-double-promotion)
+endif()
 if(KESTREL_NATIVE)
   target_compile_options(kestrel_options INTERFACE -march=native)
   # GCC 12 flags Eigen's unaligned AVX packet loads of fixed-size vectors (e.g. a Vector3d

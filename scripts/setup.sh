@@ -13,6 +13,7 @@ packages=(
   libcli11-dev             # the kestrel command line
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev         # bench/
+  clang-14 libclang-rt-14-dev llvm-14  # fuzz/: libFuzzer, ASan/UBSan runtimes, llvm-symbolizer
   libopen3d-dev            # bench/: Open3D's RGB-D odometry, a peer in scripts/bench_odometry.sh
   # ROS 1 node (src/ros, optional): roscpp, rosbag, messages, tf2_ros, cv_bridge,
   # image_transport, and rosmaster for the tests' loopback master (~120 packages, ~45 s)

@@ -19,6 +19,7 @@
 #include "kestrel/io/output_guard.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 
@@ -258,26 +259,35 @@ void add_capture_command(CLI::App& app) {
   cmd->add_option("--out", args->out,
                   "Output folder (created; refused if it holds other files unless --force)");
   auto* frames = cmd->add_option("--frames", args->frames,
-                                 "Stop after this many stereo frames (default: Ctrl-C)");
+                                 "Stop after this many stereo frames (default: Ctrl-C)")
+                    ->check(whole_in(1, 100000000, "a whole number of frames, 1 to 100000000"));
   auto* duration = cmd->add_option("--duration", args->duration_s,
-                                   "Stop after this many seconds of frames (camera clock)");
+                                   "Stop after this many seconds of frames (camera clock)")
+                      ->check(number_in(0.0, 86400.0, "a duration in (0, 86400] s", true));
   frames->excludes(duration);
   cmd->add_option("--timeout", args->timeout_s,
                   "End the capture when no frame comes for this many seconds")
-      ->capture_default_str();
-  cmd->add_option("--rate", args->rate_hz, "Frame rate to ask for in Hz (default: the device's)");
+      ->capture_default_str()
+      ->check(number_in(0.0, 3600.0, "a timeout in (0, 3600] s", true));
+  cmd->add_option("--rate", args->rate_hz, "Frame rate to ask for in Hz (default: the device's)")
+      ->check(number_in(0.0, 1000.0, "a rate in (0, 1000] Hz", true));
   cmd->add_option("--pixel-format", args->pixel_format,
                   "Fourcc the packed frames are labelled with (YUYV; Y8I on some cameras)")
       ->capture_default_str();
   cmd->add_option("--buffers", args->buffers, "Memory-mapped buffers (2..32)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(2, 32, "a whole number of buffers from 2 to 32"));
   auto* width = cmd->add_option("--width", args->width, "Width of each view = of the YUYV frame")
-                    ->capture_default_str();
+                    ->capture_default_str()
+                    ->check(whole_in(2, 8192, "a whole number of pixels from 2 to 8192"));
   auto* height =
-      cmd->add_option("--height", args->height, "Height of each view")->capture_default_str();
+      cmd->add_option("--height", args->height, "Height of each view")
+          ->capture_default_str()
+          ->check(whole_in(2, 8192, "a whole number of pixels from 2 to 8192"));
   auto* left_byte = cmd->add_option("--left-byte", args->left_byte,
                                     "Byte (0 or 1) of each 16-bit word holding the left sensor")
-                        ->capture_default_str();
+                        ->capture_default_str()
+                        ->check(whole_in(0, 1, "0 or 1"));
   auto* bayer = cmd->add_option("--bayer", args->bayer,
                                 "Bayer phase of the sensors: GRBG, RGGB, BGGR or GBRG")
                     ->capture_default_str();
@@ -294,7 +304,8 @@ void add_capture_command(CLI::App& app) {
                 "Also keep each packed frame as raw/<t_ns>.bin (for --decode-file)");
   auto* decode = cmd->add_option("--decode-file", args->decode_file,
                                  "Decode one packed frame from this file into --out "
-                                 "(left.png, right.png) instead of capturing");
+                                 "(left.png, right.png) instead of capturing")
+                    ->check(CLI::ExistingFile);
   decode->excludes(list);
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->callback([args, device] {

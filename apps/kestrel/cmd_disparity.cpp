@@ -27,6 +27,7 @@
 #include "kestrel/lab/stereo_evaluation.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -178,16 +179,29 @@ void add_disparity_command(CLI::App& app) {
                   "`stereo_pair:` YAML or an EuRoC folder (raw pair: rectified first)");
   cmd->add_option("--max-disparity", o.max_disparity,
                   "disparities searched: min <= d < max (OpenCV numDisparities for min 0)")
-      ->capture_default_str();
-  cmd->add_option("--min-disparity", o.min_disparity, "smallest disparity searched")->capture_default_str();
-  cmd->add_option("--block", o.block_size, "matching window side (odd)")->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(1, 1024, "a whole number of pixels from 1 to 1024"));
+  cmd->add_option("--min-disparity", o.min_disparity, "smallest disparity searched")
+      ->capture_default_str()
+      ->check(whole_in(0, 1023, "a whole number of pixels from 0 to 1023"));
+  cmd->add_option("--block", o.block_size, "matching window side (odd)")
+      ->capture_default_str()
+      ->check(whole_in(3, 51, "an odd whole number of pixels from 3 to 51", true));
   cmd->add_option("--cost", args->cost, "sad or census")->capture_default_str();
   cmd->add_option("--prefilter", args->prefilter, "SAD prefilter: xsobel or none")->capture_default_str();
-  cmd->add_option("--lr-max-diff", o.lr_max_diff, "left-right check tolerance [px], -1 = off")->capture_default_str();
-  cmd->add_option("--uniqueness", o.uniqueness_ratio, "uniqueness margin [%], 0 = off")->capture_default_str();
-  cmd->add_option("--texture", o.texture_threshold, "least mean |gradient| in the window, 0 = off")->capture_default_str();
-  cmd->add_option("--min-depth", o.min_depth_m, "drop nearer points [m] (needs --calib)");
-  cmd->add_option("--max-depth", o.max_depth_m, "drop farther points [m] (needs --calib)");
+  cmd->add_option("--lr-max-diff", o.lr_max_diff, "left-right check tolerance [px], -1 = off")
+      ->capture_default_str()
+      ->check(whole_in(-1, 1024, "a whole number of pixels from 0 to 1024, or -1 for off"));
+  cmd->add_option("--uniqueness", o.uniqueness_ratio, "uniqueness margin [%], 0 = off")
+      ->capture_default_str()
+      ->check(whole_in(0, 100, "a whole percentage from 0 (off) to 100"));
+  cmd->add_option("--texture", o.texture_threshold, "least mean |gradient| in the window, 0 = off")
+      ->capture_default_str()
+      ->check(number_in(0.0, 255.0, "grey levels per pixel in [0, 255] (0: off)"));
+  cmd->add_option("--min-depth", o.min_depth_m, "drop nearer points [m] (needs --calib)")
+      ->check(number_in(0.0, 10000.0, "a depth in [0, 10000] m"));
+  cmd->add_option("--max-depth", o.max_depth_m, "drop farther points [m] (needs --calib)")
+      ->check(number_in(0.0, 10000.0, "a depth in (0, 10000] m", true));
   cmd->add_flag("--no-subpixel", args->no_subpixel, "integer disparities");
   cmd->add_option("--backend", args->backend,
                   "block matcher: cpu, cuda (an error without a CUDA device) or auto (cuda "

@@ -11,6 +11,7 @@
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -99,13 +100,16 @@ void add_evaluate_command(CLI::App& app) {
                   "folder for the per-axis and RPE CSVs, the aligned estimate and PNG figures");
   cmd->add_option("--max-diff", args->options.max_diff_s,
                   "ATE association: largest time difference of a gt/est pair [s]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 3600.0, "a time difference in (0, 3600] s", true));
   cmd->add_option("--delta", args->options.rpe_delta_s, "RPE window length [s]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 3600.0, "a window length in (0, 3600] s", true));
   cmd->add_option("--offset", args->offset_s,
                   "time offset added to the estimate's stamps before the association [s] "
                   "(the TUM scripts' --offset)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(-1e6, 1e6, "an offset in [-1000000, 1000000] s"));
   cmd->add_flag("--force", args->force,
                 "write into a folder or over files not written by "
                 "`kestrel evaluate`");

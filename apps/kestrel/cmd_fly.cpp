@@ -135,7 +135,8 @@ void add_fly_command(CLI::App& app) {
                   "Simulated seconds (default: the scenario's: hover 60, square 28, corridor 32)")
       ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
   cmd->add_option("--seed", args->seed, "Seed of every random part (IMU, noise, pattern)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--out", args->out, "Output folder: log.csv, details.csv, top_view.png, errors.png");
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->add_flag("--list", args->list, "List the scenarios, then exit");

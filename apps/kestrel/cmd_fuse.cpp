@@ -21,6 +21,7 @@
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/yaml_file.hpp"
 #include "interrupt.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -387,7 +388,8 @@ void add_fuse_command(CLI::App& app) {
                   "with --vo-frames: keyframe (default) or previous_frame");
   cmd->add_option("--vo-cov-scale", a->vo_cov_scale,
                   "with --vo-frames: factor on the odometry's covariance")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 1e6, "a factor in (0, 1000000]", true));
   cmd->add_option("--calib", a->calib_path,
                   "IMU sensor YAML (EuRoC imu0/sensor.yaml: noise densities, random walks, "
                   "rate); may hold T_body_cam (4x4) for the odometry camera")->required();
@@ -402,9 +404,11 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_option("--states", a->states_path, "also write full states, sigmas and flags here");
   cmd->add_flag("--imu-rate", a->imu_rate, "output at every IMU sample");
   cmd->add_option("--vo-sigma-pos", a->vo_sigma_p_m, "odometry sigma without --vo-cov [m]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 100.0, "a standard deviation in (0, 100] m", true));
   cmd->add_option("--vo-sigma-rot-deg", a->vo_sigma_rot_deg, "odometry sigma without --vo-cov [deg]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 180.0, "a standard deviation in (0, 180] deg", true));
   cmd->add_flag("--force", a->force, "overwrite files not written by `kestrel fuse`");
   cmd->callback([a] { run_fuse(*a); });
 }

@@ -32,6 +32,7 @@
 #include "kestrel/sensor/rectification.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -517,13 +518,16 @@ void add_odometry_command(CLI::App& app) {
                   "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN)");
   cmd->add_option("--depth-scale", args->depth_scale,
                   "depth PNG units per metre (TUM RGB-D: 5000; many other RGB-D recordings: 1000)")
-      ->check(CLI::PositiveNumber);
+      ->check(number_in(0.0, 1e6, "depth units per metre in (0, 1000000]", true));
   cmd->add_flag("--stereo", args->stereo,
                 "EuRoC stereo input: rectify, block-match, track the left view in disparity space");
-  cmd->add_option("--block", args->block, "--stereo: matching window side (odd; default 9)");
+  cmd->add_option("--block", args->block, "--stereo: matching window side (odd; default 9)")
+      ->check(whole_in(3, 51, "an odd whole number of pixels from 3 to 51", true));
   cmd->add_option("--max-disparity", args->max_disparity,
-                  "--stereo: disparities searched: min <= d < max (default 64)");
-  cmd->add_option("--min-disparity", args->min_disparity, "--stereo: smallest disparity (default 0)");
+                  "--stereo: disparities searched: min <= d < max (default 64)")
+      ->check(whole_in(1, 1024, "a whole number of pixels from 1 to 1024"));
+  cmd->add_option("--min-disparity", args->min_disparity, "--stereo: smallest disparity (default 0)")
+      ->check(whole_in(0, 1023, "a whole number of pixels from 0 to 1023"));
   cmd->add_option("--matcher-options", args->matcher_options,
                   "--stereo: block matcher options YAML (the flags above override it)")
       ->check(CLI::ExistingFile);

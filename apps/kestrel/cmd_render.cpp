@@ -206,13 +206,15 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--trajectory", args->trajectory, "Trajectory name (see --list)");
   cmd->add_option("--out", args->out, "Output folder (created; refused if it holds other files)");
   cmd->add_option("--seed", args->seed, "Seed of the sensor noise and random trajectories")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--texture-seed", args->texture_seed,
                   "Seed of the scene's random textures (0: the canonical scene)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   auto* frames = cmd->add_option("--frames", args->frames, "Number of frames")
                      ->capture_default_str()
-                     ->check(number_in(1.0, 100000.0, "a whole number of frames, 1 to 100000"));
+                     ->check(whole_in(1, 100000, "a whole number of frames, 1 to 100000"));
   auto* duration =
       cmd->add_option("--duration", args->duration_s, "Length in seconds (instead of --frames)")
           ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
@@ -231,7 +233,8 @@ void add_render_command(CLI::App& app) {
   cmd->add_flag("--stereo", args->stereo,
                 "Also write a rectified stereo sequence (mav0/, EuRoC layout) and stereo.yaml");
   cmd->add_option("--baseline", args->baseline_m, "Stereo baseline in metres")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 10.0, "a baseline in (0, 10] m", true));
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->add_flag("--list", args->list, "List the scenes and trajectories, then exit");
   cmd->callback([args] { run_render(*args); });

@@ -6,6 +6,10 @@
 
 namespace kestrel::cli {
 
+/// Every command of `kestrel` on `app`: the user's, in the order of the pipeline, in the
+/// "Commands" group; then `lab`.
+void add_commands(CLI::App& app);
+
 void add_evaluate_command(CLI::App& app);
 void add_render_command(CLI::App& app);
 void add_odometry_command(CLI::App& app);

@@ -14,6 +14,7 @@
 #include "kestrel/lab/fusion_experiments.hpp"
 #include "kestrel/lab/fusion_simulation.hpp"
 #include "interrupt.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -142,17 +143,24 @@ void add_fuse_eval_command(CLI::App& lab) {
       "The fusion's target experiments: real EuRoC IMU (V1_02, V1_01) with noisy relative "
       "poses from the ground truth, and Monte-Carlo NEES in simulation (docs/fusion.md).");
   cmd->add_option("--data", a->data_dir, "the shared data folder (default $KESTREL_DATA_DIR)");
-  cmd->add_option("--runs", a->runs, "Monte-Carlo runs")->capture_default_str();
-  cmd->add_option("--duration", a->duration_s, "seconds per simulated run")->capture_default_str();
-  cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
+  cmd->add_option("--runs", a->runs, "Monte-Carlo runs")
+      ->capture_default_str()
+      ->check(whole_in(1, 10000, "a whole number of runs from 1 to 10000"));
+  cmd->add_option("--duration", a->duration_s, "seconds per simulated run")
+      ->capture_default_str()
+      ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
+  cmd->add_option("--seed", a->seed, "random seed")->capture_default_str()->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--seeds", a->seeds,
                   "real-data runs over this many noise draws (seeds seed, seed+1, ...): prints "
                   "the spread of every target's figure and how many draws meet it")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(1, 10000, "a whole number of draws from 1 to 10000"));
   cmd->add_option("--init-sigma-gyro-bias", a->init_sigma_gyro_bias, "prior sigma [rad/s]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 10.0, "a standard deviation in (0, 10] rad/s", true));
   cmd->add_option("--init-sigma-accel-bias", a->init_sigma_accel_bias, "prior sigma [m/s^2]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 100.0, "a standard deviation in (0, 100] m/s^2", true));
   cmd->add_flag("--skip-real", a->skip_real, "no EuRoC experiments");
   cmd->add_flag("--skip-sim", a->skip_sim, "no Monte-Carlo NEES");
   cmd->add_flag("--static-bias-init", a->static_bias_init,
@@ -163,16 +171,19 @@ void add_fuse_eval_command(CLI::App& lab) {
                 "as keyframe odometry reports them) instead of frame to frame");
   cmd->add_option("--imu-noise-scale", a->imu_noise_scale,
                   "multiply the IMU white-noise densities of imu0/sensor.yaml")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 1000.0, "a factor in [0, 1000]"));
   cmd->add_option("--imu-walk-scale", a->imu_walk_scale,
                   "multiply the IMU bias random walks of imu0/sensor.yaml")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 1000.0, "a factor in [0, 1000]"));
   cmd->add_flag("--no-first-estimates", a->no_first_estimates,
                 "Jacobians at the latest estimates instead of the first ones (for comparison: "
                 "the filter then gains yaw information no sensor gives)");
   cmd->add_option("--gap-start", a->gap_start_s,
                   "start of the 2 s measurement gap, seconds after the first pose")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 3600.0, "a time in [0, 3600] s"));
   cmd->add_flag("--synthetic-imu", a->synthetic_imu,
                 "control experiment: the real IMU replaced by one synthesised from the ground "
                 "truth (spline through it) with exactly imu0/sensor.yaml's noise and bias walks, "

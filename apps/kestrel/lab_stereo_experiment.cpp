@@ -17,6 +17,7 @@
 #include "kestrel/lab/stereo_experiment.hpp"
 #include "kestrel/lab/stereo_odometry_experiment.hpp"
 #include "interrupt.hpp"
+#include "option_checks.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -164,28 +165,37 @@ void add_stereo_experiment_command(CLI::App& lab) {
   auto& o = args->options;
   cmd->add_option("--out", args->out, "output folder")->required();
   cmd->add_option("--seed", o.seed, "seed of the pattern, textures and noise")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--block", o.matcher.block_size, "matching window side (odd)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(3, 51, "an odd whole number of pixels from 3 to 51", true));
   cmd->add_option("--max-disparity", o.matcher.max_disparity, "disparities searched: 0 <= d < N")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(1, 1024, "a whole number of pixels from 1 to 1024"));
   cmd->add_option("--mode", args->mode,
                   "active lighting: dark (pattern only) or ambient (+ pattern)")
       ->capture_default_str();
-  cmd->add_option("--lines", o.pattern.lines, "pattern line count")->capture_default_str();
+  cmd->add_option("--lines", o.pattern.lines, "pattern line count")
+      ->capture_default_str()
+      ->check(whole_in(1, 100000, "a whole number of lines, 1 to 100000"));
   cmd->add_flag("--segments{false}", o.pattern.full_lines,
                 "pattern of segments (--min-length..--max-length) instead of lines across it");
   cmd->add_option("--min-length", o.pattern.min_length_px,
                   "pattern: shortest segment [projector px] (--segments)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(1.0, 100000.0, "a length in [1, 100000] px"));
   cmd->add_option("--max-length", o.pattern.max_length_px,
                   "pattern: longest segment [projector px] (--segments)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(1.0, 100000.0, "a length in [1, 100000] px"));
   cmd->add_option("--projector-fov", o.projector.horizontal_fov_deg,
                   "projector horizontal field of view [deg]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 170.0, "an angle in (0, 170] deg", true));
   cmd->add_option("--noise", o.intensity_sigma, "camera intensity noise sigma [grey levels]")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(number_in(0.0, 255.0, "a standard deviation in [0, 255] grey levels"));
   cmd->add_flag("--force", args->force, "write into a folder not claimed by this command");
   // The stereo odometry experiment: defaults in stereo_odometry_experiment.hpp.
   auto& q = args->odo;
@@ -196,14 +206,25 @@ void add_stereo_experiment_command(CLI::App& lab) {
                   "--odometry: scene (corridor, bare_corridor, ...: kestrel render --list)")
       ->capture_default_str();
   cmd->add_option("--trajectory", q.trajectory, "--odometry: trajectory")->capture_default_str();
-  cmd->add_option("--frames", q.frames, "--odometry: frames")->capture_default_str();
-  cmd->add_option("--rate", q.rate_hz, "--odometry: frame rate [Hz]")->capture_default_str();
-  cmd->add_option("--width", q.width, "--odometry: image width")->capture_default_str();
-  cmd->add_option("--height", q.height, "--odometry: image height")->capture_default_str();
-  cmd->add_option("--focal", q.f_px, "--odometry: focal length [px]")->capture_default_str();
+  cmd->add_option("--frames", q.frames, "--odometry: frames")
+      ->capture_default_str()
+      ->check(whole_in(2, 100000, "a whole number of frames, 2 to 100000"));
+  cmd->add_option("--rate", q.rate_hz, "--odometry: frame rate [Hz]")
+      ->capture_default_str()
+      ->check(number_in(0.0, 1000.0, "a rate in (0, 1000] Hz", true));
+  cmd->add_option("--width", q.width, "--odometry: image width")
+      ->capture_default_str()
+      ->check(whole_in(16, 4096, "a whole number of pixels from 16 to 4096"));
+  cmd->add_option("--height", q.height, "--odometry: image height")
+      ->capture_default_str()
+      ->check(whole_in(16, 4096, "a whole number of pixels from 16 to 4096"));
+  cmd->add_option("--focal", q.f_px, "--odometry: focal length [px]")
+      ->capture_default_str()
+      ->check(number_in(1.0, 100000.0, "a focal length in [1, 100000] px"));
   cmd->add_option("--pyramid-levels", q.tracker.pyramid_levels,
                   "--odometry: tracker pyramid levels")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(whole_in(1, 8, "a whole number of levels from 1 to 8"));
   cmd->add_flag("--write-sequences", args->write_sequences,
                 "--odometry: also write the passive/ and active/ EuRoC folders "
                 "(for `kestrel odometry --stereo`)");

@@ -11,20 +11,7 @@ int main(int argc, char** argv) {
       "kestrel: direct visual odometry, active stereo, VO+IMU fusion and control for MAVs"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "kestrel 0.1.0");
-  // The user's commands, in the order of the pipeline; then the lab's group.
-  kestrel::cli::add_odometry_command(app);
-  kestrel::cli::add_disparity_command(app);
-  kestrel::cli::add_fuse_command(app);
-  kestrel::cli::add_evaluate_command(app);
-  kestrel::cli::add_run_command(app);
-  kestrel::cli::add_capture_command(app);
-  kestrel::cli::add_fly_command(app);
-  kestrel::cli::add_render_command(app);
-  kestrel::cli::add_pattern_command(app);
-  for (CLI::App* cmd : app.get_subcommands([](CLI::App*) { return true; })) {
-    cmd->group("Commands");
-  }
-  kestrel::cli::add_lab_command(app);
+  kestrel::cli::add_commands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -41,12 +41,15 @@ std::string spans_text(const Trajectory& gt, const Trajectory& est) {
 }  // namespace
 
 void EvaluationOptions::validate() const {
-  if (!std::isfinite(max_diff_s) || max_diff_s <= 0.0) {
-    throw InputError("max_diff_s must be a positive number of seconds, got " +
+  // Bounded so that the nanosecond forms (s_to_ns) stay far inside int64: 1e10 s was 1e19 ns,
+  // a signed overflow in the association.
+  constexpr double kMaxSeconds = 1e6;
+  if (!std::isfinite(max_diff_s) || max_diff_s <= 0.0 || max_diff_s > kMaxSeconds) {
+    throw InputError("max_diff_s must be a number of seconds in (0, 1000000], got " +
                      io::format_double(max_diff_s));
   }
-  if (!std::isfinite(rpe_delta_s) || rpe_delta_s <= 0.0) {
-    throw InputError("rpe_delta_s must be a positive number of seconds, got " +
+  if (!std::isfinite(rpe_delta_s) || rpe_delta_s <= 0.0 || rpe_delta_s > kMaxSeconds) {
+    throw InputError("rpe_delta_s must be a number of seconds in (0, 1000000], got " +
                      io::format_double(rpe_delta_s));
   }
 }

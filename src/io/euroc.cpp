@@ -15,6 +15,9 @@ namespace fs = std::filesystem;
 namespace {
 
 double positive_field(const YAML::Node& root, const char* key, const fs::path& path) {
+  // A scalar or list has no fields (and operator[] on a scalar throws yaml-cpp's BadSubscript,
+  // whose message names no file: found by fuzz/sensor_yaml.cpp).
+  if (!root.IsMap()) throw InputError(path.string() + ": expected a YAML map of IMU fields");
   if (!root[key]) throw InputError(path, key, "is missing");
   double v = 0.0;
   try {

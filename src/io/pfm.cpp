@@ -52,8 +52,19 @@ cv::Mat read_pfm(const fs::path& path) {
   in.get();  // the single whitespace character that ends the header
   const bool file_little = scale < 0.0;
   const bool swap = file_little != (std::endian::native == std::endian::little);
-  cv::Mat image(height, width, channels == 1 ? CV_32FC1 : CV_32FC3);
   const std::size_t row_bytes = static_cast<std::size_t>(width) * static_cast<std::size_t>(channels) * 4U;
+  // The data must be in the file before the image is allocated: a 20-byte header claiming
+  // 65536x65536 colour pixels asked for 48 GiB (found by fuzz/pfm.cpp).
+  const std::streamoff data_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff file_end = in.tellg();
+  in.seekg(data_start);
+  if (data_start < 0 || file_end < data_start ||
+      static_cast<std::size_t>(file_end - data_start) / row_bytes < static_cast<std::size_t>(height)) {
+    throw InputError(path.string() + ": PFM data ends early (expected " + std::to_string(width) +
+                     "x" + std::to_string(height) + "x" + std::to_string(channels) + " floats)");
+  }
+  cv::Mat image(height, width, channels == 1 ? CV_32FC1 : CV_32FC3);
   std::vector<char> row(row_bytes);
   for (int y = height - 1; y >= 0; --y) {
     if (!in.read(row.data(), static_cast<std::streamsize>(row_bytes))) {

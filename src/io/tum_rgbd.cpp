@@ -2,6 +2,7 @@
 #include "kestrel/io/tum_rgbd.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <opencv2/imgcodecs.hpp>
 
 #include "kestrel/core/error.hpp"
@@ -42,11 +43,22 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const std::ve
     std::size_t ia, ib;
   };
   std::vector<Candidate> candidates;
+  if (max_diff_ns <= 0) return {};
+  // Differences in uint64, where the difference of any two int64 fits: a - max_diff and
+  // a + max_diff overflowed for a huge tolerance (`evaluate --max-diff 1e10`, UBSan) or for
+  // stamps near the int64 limits.
+  const auto distance = [](TimeNs x, TimeNs y) {
+    return x >= y ? static_cast<std::uint64_t>(x) - static_cast<std::uint64_t>(y)
+                  : static_cast<std::uint64_t>(y) - static_cast<std::uint64_t>(x);
+  };
+  const auto max_diff = static_cast<std::uint64_t>(max_diff_ns);
   std::size_t lo = 0;
   for (std::size_t i = 0; i < a.size(); ++i) {
-    while (lo < b.size() && b[lo] <= a[i] - max_diff_ns) ++lo;
-    for (std::size_t j = lo; j < b.size() && b[j] < a[i] + max_diff_ns; ++j) {
-      candidates.push_back({std::abs(a[i] - b[j]), i, j});
+    while (lo < b.size() && b[lo] < a[i] && distance(a[i], b[lo]) >= max_diff) ++lo;
+    for (std::size_t j = lo; j < b.size() && (b[j] <= a[i] || distance(b[j], a[i]) < max_diff);
+         ++j) {
+      // Below max_diff_ns, so it fits a TimeNs.
+      candidates.push_back({static_cast<TimeNs>(distance(a[i], b[j])), i, j});
     }
   }
   std::stable_sort(candidates.begin(), candidates.end(),

@@ -64,9 +64,10 @@ TEST_F(CmdCapture, BadOptionsAreNamed) {
   RunResult r = run("capture --device /dev/null --bayer XYZW --out " + path("rec"));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--bayer must be GRBG, RGGB, BGGR or GBRG"), std::string::npos) << r.err;
+  // Refused where the option is parsed (CLI11's validation exit code), before any work.
   r = run("capture --device /dev/null --left-byte 2 --out " + path("rec"));
-  EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("left_byte must be 0 or 1"), std::string::npos) << r.err;
+  EXPECT_EQ(r.exit_code, 105);
+  EXPECT_NE(r.err.find("--left-byte: got 2; expected 0 or 1"), std::string::npos) << r.err;
   r = run("capture --device /dev/null --out " + path("rec"));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("/dev/null: not a V4L2 video device"), std::string::npos) << r.err;

@@ -99,6 +99,23 @@ TEST(Euroc, MissingImuFieldIsNamed) {
   }
 }
 
+TEST(Euroc, ImuSensorFileThatIsNotAMapIsAnInputError) {
+  // Found by fuzz/sensor_yaml.cpp: a scalar document (here with NUL bytes, after the OpenCV
+  // directive) made yaml-cpp's BadSubscript escape, a message that names no file.
+  const auto dir = test::fresh_temp_dir("euroc");
+  const std::string crash("%YA\0\0\0\0\0\0\0\0\0\0\0ML:1.0\ncommenc FireAV\n", 36);
+  for (const std::string& text : {crash, std::string("%YAML:1.0\njust a scalar\n"),
+                                   std::string("- 1\n- 2\n")}) {
+    std::ofstream(dir / "sensor.yaml", std::ios::binary) << text;
+    try {
+      load_imu_noise(dir / "sensor.yaml");
+      ADD_FAILURE() << "loaded: " << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("sensor.yaml"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Euroc, NotAnEurocFolder) {
   const auto dir = test::fresh_temp_dir("euroc");
   EXPECT_THROW(EurocSequence seq(dir), InputError);

@@ -159,6 +159,11 @@ TEST(OptionFields, ErrorsNameTheFileAndTheField) {
   EXPECT_NE(error_of("offset: [1, 2]").find("field 'offset'"), std::string::npos);
   EXPECT_EQ(error_of("inner: 3"), "opts.yaml: field 'inner': must be a YAML map");
   EXPECT_EQ(error_of("- a\n- b"), "opts.yaml: test options must be a YAML map");
+  // A key that is a list or a map: yaml-cpp's BadConversion escaped, naming no file.
+  EXPECT_EQ(error_of("[gain]: 1"),
+            "opts.yaml: test options: a key must be a field name, not a list");
+  EXPECT_EQ(error_of("inner:\n  {count: 1}: 2"),
+            "opts.yaml: test options: a key must be a field name, not a map");
 }
 
 TEST(OptionFields, InfinitiesStringsPathsOptionalsAndCodecsRoundTrip) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 
 #include "kestrel/core/error.hpp"
@@ -24,6 +25,19 @@ TEST(AssociateByTime, GreedyClosestFirstEachUsedOnce) {
   EXPECT_EQ(pairs[1], std::make_pair(std::size_t{1}, std::size_t{1}));
   // Exactly max_diff apart is not a match (the benchmark uses a strict <).
   EXPECT_TRUE(associate_by_time({0}, {20 * ms}, 20 * ms).empty());
+}
+
+TEST(AssociateByTime, AHugeToleranceOrStampsNearTheLimitsDoNotOverflow) {
+  // `kestrel evaluate --max-diff 1e10` reached here as 1e19 ns: a - max_diff overflowed (UBSan).
+  constexpr TimeNs kMax = std::numeric_limits<TimeNs>::max();
+  const std::vector<TimeNs> a = {0, 10, kMax - 5};
+  const std::vector<TimeNs> b = {1, 12, kMax - 4};
+  const auto pairs = associate_by_time(a, b, kMax);
+  ASSERT_EQ(pairs.size(), 3U);
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(pairs[i], std::make_pair(i, i));
+  EXPECT_EQ(associate_by_time({kMax - 1}, {kMax}, 2).size(), 1U);
+  EXPECT_TRUE(associate_by_time({1}, {1}, 0).empty());
+  EXPECT_TRUE(associate_by_time({1}, {1}, -5).empty());
 }
 
 TEST(TumRgbdSequence, RealFreiburg1RpyPart1) {

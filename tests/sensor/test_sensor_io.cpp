@@ -86,6 +86,27 @@ TEST(Pattern, ColourSetsAndBadOptions) {
   EXPECT_THROW(generate_pattern(o, 1), std::invalid_argument);
 }
 
+TEST(Pfm, AHeaderClaimingMoreDataThanTheFileHoldsIsRefusedBeforeAllocating) {
+  // Found by fuzz/pfm.cpp: this 58-byte file claims 21111x41111 floats; the reader allocated
+  // the 3.5 GB image before finding the data short (out-of-memory under the fuzzer's limit).
+  const std::string crash(
+      "\x50\x66\x0a\x32\x31\x31\x31\x31\x01\x31\x31\x31\x31\x31\x31\x31"
+      "\x31\x31\x31\x31\x31\x00\x48\x0a\x20\x34\x31\x31\x31\x31\xff\x3a"
+      "\xff\x3a\x50\x66\x0a\x38\x20\x34\x0a\x32\x31\x31\x31\x31\x31\x31"
+      "\x31\xd0\x31\x80\x7f\x32\x32\x31\x31\x31",
+      58);
+  const auto dir = test::fresh_temp_dir("pfm");
+  for (const std::string& text : {crash, std::string("PF\n65536 65536\n-1\n")}) {
+    std::ofstream(dir / "big.pfm", std::ios::binary) << text;
+    try {
+      (void)io::read_pfm(dir / "big.pfm");
+      ADD_FAILURE() << "read a short file";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("data ends early"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Pfm, RoundTripKeepsValuesInfinityAndOrientation) {
   const auto dir = test::fresh_temp_dir("pfm");
   cv::Mat d(3, 4, CV_32F);

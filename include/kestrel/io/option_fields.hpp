@@ -186,6 +186,12 @@ void read_fields(const YAML::Node& node, const std::string& source, const char* 
     }
   });
   for (const auto& kv : node) {
+    // A key that is a list or map (`[a]: 1`) names no field; as<std::string>() would throw
+    // yaml-cpp's BadConversion, whose message names no file.
+    if (!kv.first.IsScalar()) {
+      throw InputError(source + ": " + what + " options: a key must be a field name, not a " +
+                       (kv.first.IsSequence() ? "list" : "map"));
+    }
     const auto key = kv.first.as<std::string>();
     if (known.count(key) == 0) {
       throw InputError(source, prefix + key, std::string("is not a ") + what + " option");
