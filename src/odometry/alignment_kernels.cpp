@@ -259,7 +259,10 @@ struct DoubleSum {  // one lane: no halves to promote
 struct DoubleSum {
   using DH = hn::Half<DF>;
   using DD = hn::Rebind<double, DH>;
-  hn::Vec<DD> acc = hn::Zero(DD());
+  hn::Vec<DD> acc;
+
+  // Written out: a compiler-generated constructor would lack the target's attributes.
+  HWY_INLINE DoubleSum() : acc(hn::Zero(DD())) {}
 
   HWY_INLINE void add(VF x) {
     const DH dh;

@@ -588,21 +588,11 @@ class LevelTerms {
       : photometric_(m.ref[static_cast<std::size_t>(level)], m.pyramid.level(level),
                      level_sampling(o, level == o.finest_level), m.photometric_buffers,
                      static_cast<float>(o.tukey_c),
-                     {o.estimate_gain_bias ? 8 : 6, o.min_sigma, o.sigma_freeze_change, 0.0}) {
+                     {o.estimate_gain_bias ? 8 : 6, o.min_sigma, o.sigma_freeze_change, 0.0}),
+        geometric_(geometric_term(m, o, level, geometric)) {
     const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
     list_[0] = &photometric_;
-    if (geometric && L.normal_count >= o.min_points) {
-      // The geometric scale is not below the sensor's depth noise at the level's median depth:
-      // on exact (rendered) or very clean depth the MAD of a misaligned pair counts the points
-      // whose residual the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2
-      // weights then outvote the photometric residuals in steps that raise the robust cost. It
-      // freezes at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
-      const double floor =
-          std::max(o.min_depth_sigma_m, o.depth_noise_per_m * L.median_depth * L.median_depth);
-      geometric_.emplace(L, m.depth_pyramid.level(level),
-                         static_cast<float>(o.depth_residual_max_relative_spread),
-                         m.depth_time_shift ? &m.T_rgb_depth : nullptr, m.geometric_buffers,
-                         static_cast<float>(o.tukey_c), ScaleRule{6, floor, 0.0, 5e-5});
+    if (geometric_) {
       list_[1] = &*geometric_;
       size_ = 2;
     }
@@ -616,6 +606,26 @@ class LevelTerms {
   }
 
  private:
+  // Built in place (a prvalue: the term is neither copied nor moved).
+  static std::optional<PointToPlaneTerm> geometric_term(DirectTracker::Impl& m,
+                                                        const DirectTrackerOptions& o, int level,
+                                                        bool geometric) {
+    const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
+    if (!geometric || L.normal_count < o.min_points) return std::nullopt;
+    // The geometric scale is not below the sensor's depth noise at the level's median depth:
+    // on exact (rendered) or very clean depth the MAD of a misaligned pair counts the points
+    // whose residual the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2
+    // weights then outvote the photometric residuals in steps that raise the robust cost. It
+    // freezes at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
+    const double floor =
+        std::max(o.min_depth_sigma_m, o.depth_noise_per_m * L.median_depth * L.median_depth);
+    return std::optional<PointToPlaneTerm>(std::in_place, L, m.depth_pyramid.level(level),
+                                           static_cast<float>(o.depth_residual_max_relative_spread),
+                                           m.depth_time_shift ? &m.T_rgb_depth : nullptr,
+                                           m.geometric_buffers, static_cast<float>(o.tukey_c),
+                                           ScaleRule{6, floor, 0.0, 5e-5});
+  }
+
   PhotometricTerm photometric_;
   std::optional<PointToPlaneTerm> geometric_;
   std::array<ResidualTerm*, 2> list_{};
