@@ -3,6 +3,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -32,6 +33,12 @@ std::optional<PinholeCamera> camera_preset(std::string_view name) {
 
 namespace {
 
+std::string number(double v) {
+  std::ostringstream os;
+  os << std::setprecision(12) << v;
+  return os.str();
+}
+
 std::vector<double> as_numbers(const YAML::Node& node, const fs::path& path,
                                const std::string& field, std::size_t min_n, std::size_t max_n) {
   if (!node.IsSequence()) throw InputError(path, field, "must be a list of numbers");
@@ -55,30 +62,40 @@ PinholeCamera make_camera(const PinholeIntrinsics& k, const RadTanDistortion& d,
 }
 
 CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
-  const std::string model = yaml_as<std::string>(yaml_require(root, "camera_model", path, ""), path,
-                                            "camera_model");
+  const std::string model =
+      yaml_as<std::string>(yaml_require(root, "camera_model", path, ""), path, "camera_model");
   if (model != "pinhole") {
     throw InputError(path, "camera_model", "'" + model + "' is not supported (only pinhole)");
   }
   const auto k = as_numbers(yaml_require(root, "intrinsics", path, ""), path, "intrinsics", 4, 4);
   const auto res = as_numbers(yaml_require(root, "resolution", path, ""), path, "resolution", 2, 2);
+  for (const double r : res) {  // checked before the cast to int (out of range is undefined)
+    if (!(r >= 1.0 && r <= 65536.0 && r == std::floor(r))) {
+      throw InputError(
+          path, "resolution",
+          "expected [width, height], whole numbers of pixels from 1 to 65536; got " + number(r));
+    }
+  }
   RadTanDistortion d;
   if (root["distortion_coefficients"]) {
-    const std::string dm = root["distortion_model"]
-                               ? yaml_as<std::string>(root["distortion_model"], path, "distortion_model")
-                               : "radial-tangential";
+    const std::string dm = root["distortion_model"] ? yaml_as<std::string>(root["distortion_model"],
+                                                                           path, "distortion_model")
+                                                    : "radial-tangential";
     if (dm != "radial-tangential" && dm != "radtan" && dm != "plumb_bob") {
-      throw InputError(path, "distortion_model", "'" + dm + "' is not supported (radial-tangential only)");
+      throw InputError(path, "distortion_model",
+                       "'" + dm + "' is not supported (radial-tangential only)");
     }
-    const auto c = as_numbers(root["distortion_coefficients"], path, "distortion_coefficients", 4, 5);
+    const auto c =
+        as_numbers(root["distortion_coefficients"], path, "distortion_coefficients", 4, 5);
     d = {c[0], c[1], c[2], c[3], c.size() == 5 ? c[4] : 0.0};
   }
-  CameraFile out{make_camera({k[0], k[1], k[2], k[3], static_cast<int>(res[0]),
-                              static_cast<int>(res[1])},
-                             d, path, "intrinsics"),
-                 std::nullopt};
+  CameraFile out{
+      make_camera({k[0], k[1], k[2], k[3], static_cast<int>(res[0]), static_cast<int>(res[1])}, d,
+                  path, "intrinsics"),
+      std::nullopt};
   if (root["T_BS"]) {
-    const auto m = as_numbers(yaml_require(root["T_BS"], "data", path, "T_BS."), path, "T_BS.data", 16, 16);
+    const auto m =
+        as_numbers(yaml_require(root["T_BS"], "data", path, "T_BS."), path, "T_BS.data", 16, 16);
     Eigen::Matrix4d T;
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) T(r, c) = m[static_cast<std::size_t>(4 * r + c)];
@@ -93,12 +110,6 @@ CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
 
 CameraFile load_kestrel(const YAML::Node& root, const fs::path& path) {
   return {camera_from_yaml(yaml_require(root, "camera", path, ""), path, "camera"), std::nullopt};
-}
-
-std::string number(double v) {
-  std::ostringstream os;
-  os << std::setprecision(12) << v;
-  return os.str();
 }
 
 void write_text(const fs::path& path, const std::string& text, std::string_view command,
@@ -118,9 +129,13 @@ PinholeCamera camera_from_yaml(const YAML::Node& map, const fs::path& path,
   const auto num = [&](const char* key) {
     return yaml_as<double>(yaml_require(map, key, path, prefix), path, prefix + key);
   };
-  PinholeIntrinsics k{num("fx"), num("fy"), num("cx"), num("cy"),
-                      yaml_as<int>(yaml_require(map, "width", path, prefix), path, prefix + "width"),
-                      yaml_as<int>(yaml_require(map, "height", path, prefix), path, prefix + "height")};
+  PinholeIntrinsics k{
+      num("fx"),
+      num("fy"),
+      num("cx"),
+      num("cy"),
+      yaml_as<int>(yaml_require(map, "width", path, prefix), path, prefix + "width"),
+      yaml_as<int>(yaml_require(map, "height", path, prefix), path, prefix + "height")};
   RadTanDistortion d;
   if (map["distortion"]) {
     const auto c = as_numbers(map["distortion"], path, prefix + "distortion", 4, 5);
@@ -154,11 +169,16 @@ RectifiedStereo load_rectified_stereo(const fs::path& path) {
   const YAML::Node root = load_yaml_file(path);
   const YAML::Node st = yaml_require(root, "stereo", path, "");
   const auto num = [&](const char* key) {
-    return yaml_as<double>(yaml_require(st, key, path, "stereo."), path, std::string("stereo.") + key);
+    return yaml_as<double>(yaml_require(st, key, path, "stereo."), path,
+                           std::string("stereo.") + key);
   };
-  RectifiedStereo s{num("f"), num("cu"), num("cv"), num("baseline_m"),
-                    yaml_as<int>(yaml_require(st, "width", path, "stereo."), path, "stereo.width"),
-                    yaml_as<int>(yaml_require(st, "height", path, "stereo."), path, "stereo.height")};
+  RectifiedStereo s{
+      num("f"),
+      num("cu"),
+      num("cv"),
+      num("baseline_m"),
+      yaml_as<int>(yaml_require(st, "width", path, "stereo."), path, "stereo.width"),
+      yaml_as<int>(yaml_require(st, "height", path, "stereo."), path, "stereo.height")};
   try {
     s.validate();
   } catch (const std::invalid_argument& e) {
@@ -167,15 +187,15 @@ RectifiedStereo load_rectified_stereo(const fs::path& path) {
   return s;
 }
 
-void save_camera_yaml(const fs::path& path, const PinholeCamera& camera,
-                      std::string_view command, bool force) {
+void save_camera_yaml(const fs::path& path, const PinholeCamera& camera, std::string_view command,
+                      bool force) {
   const auto& k = camera.intrinsics();
   const auto& d = camera.distortion();
   std::ostringstream os;
   os << "camera:\n  model: pinhole\n  width: " << k.width << "\n  height: " << k.height
      << "\n  fx: " << number(k.fx) << "\n  fy: " << number(k.fy) << "\n  cx: " << number(k.cx)
-     << "\n  cy: " << number(k.cy) << "\n  distortion: [" << number(d.k1) << ", "
-     << number(d.k2) << ", " << number(d.p1) << ", " << number(d.p2) << ", " << number(d.k3)
+     << "\n  cy: " << number(k.cy) << "\n  distortion: [" << number(d.k1) << ", " << number(d.k2)
+     << ", " << number(d.p1) << ", " << number(d.p2) << ", " << number(d.k3)
      << "]  # k1, k2, p1, p2, k3 (radial-tangential)\n";
   write_text(path, os.str(), command, force);
 }
@@ -201,10 +221,10 @@ void save_euroc_camera_yaml(const fs::path& path, const PinholeCamera& camera,
         "  data: [";
   for (int i = 0; i < 16; ++i) os << (i ? ", " : "") << number(T(i / 4, i % 4));
   os << "]\nrate_hz: " << number(rate_hz) << "\nresolution: [" << k.width << ", " << k.height
-     << "]\ncamera_model: pinhole\nintrinsics: [" << number(k.fx) << ", " << number(k.fy)
-     << ", " << number(k.cx) << ", " << number(k.cy)
-     << "]\ndistortion_model: radial-tangential\ndistortion_coefficients: [" << number(d.k1)
-     << ", " << number(d.k2) << ", " << number(d.p1) << ", " << number(d.p2);
+     << "]\ncamera_model: pinhole\nintrinsics: [" << number(k.fx) << ", " << number(k.fy) << ", "
+     << number(k.cx) << ", " << number(k.cy)
+     << "]\ndistortion_model: radial-tangential\ndistortion_coefficients: [" << number(d.k1) << ", "
+     << number(d.k2) << ", " << number(d.p1) << ", " << number(d.p2);
   if (d.k3 != 0.0) os << ", " << number(d.k3);  // EuRoC files carry 4; k3 only when used
   os << "]\n";
   write_text(path, os.str(), command, force);

@@ -66,7 +66,8 @@ TEST(CameraYaml, MissingFieldIsNamed) {
     EXPECT_NE(std::string(e.what()).find("camera.cy"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos);
   }
-  std::ofstream(dir / "neg.yaml") << "camera: {fx: -1, fy: 500, cx: 1, cy: 1, width: 2, height: 2}\n";
+  std::ofstream(dir / "neg.yaml")
+      << "camera: {fx: -1, fy: 500, cx: 1, cy: 1, width: 2, height: 2}\n";
   EXPECT_THROW(load_camera_file(dir / "neg.yaml"), InputError);
   std::ofstream(dir / "broken.yaml") << "camera: [1, 2\n";
   try {
@@ -79,10 +80,29 @@ TEST(CameraYaml, MissingFieldIsNamed) {
   EXPECT_THROW(load_camera_file(dir / "other.yaml"), InputError);
 }
 
+// Found by the sensor_yaml fuzzer: a resolution beyond int's range was cast to int (undefined
+// behaviour, UBSan: "4.22222e+49 is outside the range of representable values of type 'int'").
+TEST(CameraYaml, EurocResolutionOutOfRangeIsAnInputError) {
+  const auto dir = test::fresh_temp_dir("io");
+  const std::string head =
+      "sensor_type: camera\ncamera_model: pinhole\n"
+      "intrinsics: [458.654, 457.296, 367.215, 248.375]\nresolution: ";
+  for (const char* res : {"[752, 42222222222222222222222222222222222222222222222280]",
+                          "[752, -480]", "[752.5, 480]", "[0, 480]", "[752, .nan]"}) {
+    std::ofstream(dir / "sensor.yaml") << head << res << "\n";
+    try {
+      load_camera_file(dir / "sensor.yaml");
+      ADD_FAILURE() << res << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("resolution"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(CameraYaml, RealEurocSensorFile) {
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/cam0/sensor.yaml");
-  const auto f = load_camera_file(test::shared_data_dir() /
-                                  "euroc/V1_01_easy_part1/mav0/cam0/sensor.yaml");
+  const auto f =
+      load_camera_file(test::shared_data_dir() / "euroc/V1_01_easy_part1/mav0/cam0/sensor.yaml");
   EXPECT_DOUBLE_EQ(f.camera.fx(), 458.654);
   EXPECT_DOUBLE_EQ(f.camera.cy(), 248.375);
   EXPECT_EQ(f.camera.width(), 752);
