@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/lab/fusion_experiments.hpp"
 #include "kestrel/lab/fusion_simulation.hpp"
-#include "interrupt.hpp"
 #include "option_checks.hpp"
 
 namespace kestrel::cli {
@@ -74,8 +74,8 @@ void run_fuse_eval(const FuseEvalArgs& a) {
     std::cout << "# CONTROL EXPERIMENT: the real IMU replaced by one synthesised from the ground "
                  "truth with imu0/sensor.yaml's noise (--synthetic-imu); not the issue's targets\n";
   }
-  // Ctrl-C stops between the experiments (each noise draw, the simulation): what was printed
-  // stands, and the exit status says the run is incomplete.
+  // Ctrl-C stops between the experiments (each noise draw, each Monte-Carlo run): what was
+  // printed stands, and the exit status says the run is incomplete.
   const InterruptScope interrupt;
   if (!a.skip_real) {
     // The first seed's runs in full; with --seeds N the spread of the targets' figures over
@@ -111,7 +111,8 @@ void run_fuse_eval(const FuseEvalArgs& a) {
     sim_default.first_estimate_jacobians = options.first_estimate_jacobians;
     for (const fusion::FusionOptions& o : {sim_default, options}) {
       if (interrupt.requested()) break;
-      const auto r = lab::monte_carlo_nees(a.runs, sim, o, a.seed);
+      const auto r = lab::monte_carlo_nees(a.runs, sim, o, a.seed, interrupt.flag());
+      if (interrupt.requested()) break;  // an incomplete batch is not printed
       std::cout.setf(std::ios::fixed);
       std::cout.precision(3);
       std::cout << "Monte-Carlo NEES (bias prior " << o.init_sigma_gyro_bias_rad_s << " rad/s, "
@@ -149,7 +150,9 @@ void add_fuse_eval_command(CLI::App& lab) {
   cmd->add_option("--duration", a->duration_s, "seconds per simulated run")
       ->capture_default_str()
       ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
-  cmd->add_option("--seed", a->seed, "random seed")->capture_default_str()->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
+  cmd->add_option("--seed", a->seed, "random seed")
+      ->capture_default_str()
+      ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--seeds", a->seeds,
                   "real-data runs over this many noise draws (seeds seed, seed+1, ...): prints "
                   "the spread of every target's figure and how many draws meet it")

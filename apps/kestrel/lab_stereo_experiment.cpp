@@ -10,13 +10,13 @@
 #include <string>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/pfm.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/lab/stereo_experiment.hpp"
 #include "kestrel/lab/stereo_odometry_experiment.hpp"
-#include "interrupt.hpp"
 #include "option_checks.hpp"
 
 namespace kestrel::cli {
@@ -62,15 +62,11 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
     o.force = true;  // inside the folder this command has just claimed
   }
   std::cerr << "kestrel lab stereo-experiment --odometry: " << o.describe() << "\n";
-  // The experiment runs as one piece: Ctrl-C is honoured when it returns (a second one ends
-  // the process at once), and nothing is written then.
+  // Ctrl-C ends the run after the current frame; the trajectories of the frames done are
+  // written, then the command says so.
   const InterruptScope interrupt;
+  o.stop = interrupt.flag();
   const lab::StereoOdometryExperimentResult r = lab::run_stereo_odometry_experiment(o);
-  if (interrupt.requested()) {
-    throw_interrupted(interrupt, "before the results were written; nothing written to " +
-                                     args.out.string() +
-                                     (args.write_sequences ? " but the sequences" : ""));
-  }
   io::write_tum_trajectory(args.out / "groundtruth.txt", r.groundtruth, kStereoExperimentCommand,
                            true);
   for (const auto& run : r.runs) {
@@ -88,6 +84,11 @@ void run_odometry_experiment(ExperimentArgs& args, const CLI::App& cmd) {
               << "_ate_m=" << (run.evaluated ? run.ate.stats_m.rmse : -1.0) << " ";
   }
   std::cout << "\n";
+  if (r.stopped) {
+    throw_interrupted(interrupt, "after " + std::to_string(r.groundtruth.size()) + " of " +
+                                     std::to_string(o.frames) + " frames; wrote " +
+                                     args.out.string() + " (the frames done)");
+  }
 }
 
 void write_image(const fs::path& path, const cv::Mat& image) {

@@ -167,7 +167,8 @@ fusion::NominalState true_state(const SimulatedFlight& flight, const SimulatedRu
 }
 
 NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
-                            const fusion::FusionOptions& fusion_in, std::uint64_t seed) {
+                            const fusion::FusionOptions& fusion_in, std::uint64_t seed,
+                            const std::atomic<bool>* stop) {
   if (runs < 1) throw std::invalid_argument("monte_carlo_nees: runs must be >= 1");
   fusion::FusionOptions fusion = fusion_in;
   fusion.T_body_cam = sim.T_body_cam;
@@ -178,6 +179,10 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
   double sq_err = 0.0;
   std::size_t n_err = 0;
   for (int r = 0; r < runs; ++r) {
+    if (stop != nullptr && stop->load()) {
+      res.runs = r;
+      break;
+    }
     std::mt19937_64 rng(seed * 1000003ULL + static_cast<std::uint64_t>(r));
     const SimulatedFlight flight(seed + 1 + static_cast<std::uint64_t>(r));
     const SimulatedRun run = simulate_run(flight, sim, fusion, rng);
@@ -222,8 +227,15 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
       ++n_err;
     }
   }
-  res.lower_bound = fusion::chi_square_quantile(0.025, 3.0 * runs) / runs;
-  res.upper_bound = fusion::chi_square_quantile(0.975, 3.0 * runs) / runs;
+  if (res.runs == 0) return res;
+  if (res.runs < runs) {  // stopped: the sums were divided by `runs`, not by the runs done
+    const double scale = static_cast<double>(runs) / res.runs;
+    for (auto* v : {&res.nees_p, &res.nees_theta, &res.nees_v}) {
+      for (double& x : *v) x *= scale;
+    }
+  }
+  res.lower_bound = fusion::chi_square_quantile(0.025, 3.0 * res.runs) / res.runs;
+  res.upper_bound = fusion::chi_square_quantile(0.975, 3.0 * res.runs) / res.runs;
   auto summarise = [&](const std::vector<double>& v, double& mean, double& inside) {
     mean = 0.0;
     inside = 0.0;

@@ -152,6 +152,10 @@ StereoOdometryExperimentResult run_stereo_odometry_experiment(
   StereoOdometryExperimentResult result;
   SE3 T_left0_world;
   for (int k = 0; k < o.frames; ++k) {
+    if (o.stop != nullptr && o.stop->load()) {
+      result.stopped = true;
+      break;
+    }
     const TimeNs t_ns = clock.time_ns(static_cast<std::size_t>(k));
     const sim::KinematicState state = trajectory.state(clock.trajectory_time_s(t_ns));
     const SE3 T_world_left = state.T_world_body * T_body_cam;
@@ -183,6 +187,7 @@ StereoOdometryExperimentResult run_stereo_odometry_experiment(
     passive_writer->finish();
     active_writer->finish();
   }
+  if (result.groundtruth.empty()) return result;  // stopped before the first frame
   for (RunState* s : {&rp, &ra, &rd}) {
     s->finish(result.groundtruth);
     result.runs.push_back(std::move(s->run));

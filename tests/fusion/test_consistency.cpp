@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <atomic>
 #include <numbers>
 
 #include "kestrel/lab/fusion_simulation.hpp"
@@ -17,10 +18,14 @@ TEST(FusionSimulation, FlightDerivativesMatchFiniteDifferences) {
     for (double t = 0.0; t < 20.0; t += 3.7) {
       const double h = 1e-5;
       const lab::FlightPoint p = flight.at(t), a = flight.at(t - h), b = flight.at(t + h);
-      EXPECT_LT((p.v_world - (b.T_world_body.translation() - a.T_world_body.translation()) / (2 * h)).norm(), 1e-6);
+      EXPECT_LT(
+          (p.v_world - (b.T_world_body.translation() - a.T_world_body.translation()) / (2 * h))
+              .norm(),
+          1e-6);
       EXPECT_LT((p.a_world - (b.v_world - a.v_world) / (2 * h)).norm(), 1e-6);
       // omega_body = log(R(t-h)^T R(t+h)) / 2h
-      const Eigen::Vector3d w = (a.T_world_body.so3().inverse() * b.T_world_body.so3()).log() / (2 * h);
+      const Eigen::Vector3d w =
+          (a.T_world_body.so3().inverse() * b.T_world_body.so3()).log() / (2 * h);
       EXPECT_LT((p.omega_body - w).norm(), 1e-6);
     }
   }
@@ -42,6 +47,17 @@ TEST(FusionConsistency, MonteCarloNeesInsideTheBounds) {
   EXPECT_GT(r.inside_p, 0.8);
   EXPECT_GT(r.inside_theta, 0.8);
   EXPECT_GT(r.inside_v, 0.8);
+}
+
+// Ctrl-C before the first run (the stop flag already set): no run, no figures, no division by 0.
+TEST(FusionConsistency, MonteCarloNeesStoppedBeforeItsFirstRunHasNoRuns) {
+  lab::SimulationOptions sim;
+  sim.duration_s = 2.0;
+  const std::atomic<bool> stop{true};
+  const lab::NeesResult r = lab::monte_carlo_nees(5, sim, FusionOptions{}, 42, &stop);
+  EXPECT_EQ(r.runs, 0);
+  EXPECT_TRUE(r.t_s.empty());
+  EXPECT_EQ(r.mean_p, 0.0);
 }
 
 // The information the filter holds about a yaw of everything about gravity, N^T P^-1 N with N

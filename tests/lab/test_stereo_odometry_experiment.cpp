@@ -2,8 +2,11 @@
 // (160x120, 20 frames: seconds). Full-size figures and commands: docs/stereo.md.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <iostream>
 #include <string>
+#include <thread>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/lab/stereo_odometry_experiment.hpp"
@@ -87,6 +90,32 @@ TEST(StereoOdometryExperiment, BareCorridorPassiveFailsWhereActiveDepthFollows) 
   EXPECT_LT(active_depth.ate.stats_m.rmse, 0.05 * path);
   EXPECT_GT(passive.failures, 0);
   EXPECT_GT(passive.ate.stats_m.rmse, 2.5 * active_depth.ate.stats_m.rmse);
+}
+
+// Ctrl-C: a stop flag set before the first frame ends the run at once, with nothing tracked; one
+// set from another thread mid-run leaves every run with exactly the frames done.
+TEST(StereoOdometryExperiment, StopFlagEndsTheRunWithTheFramesDone) {
+  StereoOdometryExperimentOptions o = small_corridor();
+  std::atomic<bool> stop{true};
+  o.stop = &stop;
+  const StereoOdometryExperimentResult none = run_stereo_odometry_experiment(o);
+  EXPECT_TRUE(none.stopped);
+  EXPECT_TRUE(none.groundtruth.empty());
+  EXPECT_TRUE(none.runs.empty());
+
+  stop = false;
+  o.frames = 200;  // ~2 s here: the flag is set long before the end
+  std::thread stopper([&stop] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    stop = true;
+  });
+  const StereoOdometryExperimentResult some = run_stereo_odometry_experiment(o);
+  stopper.join();
+  ASSERT_TRUE(some.stopped);
+  EXPECT_LT(some.groundtruth.size(), 200U);
+  for (const StereoOdometryRun& run : some.runs) {
+    EXPECT_EQ(run.estimate.size(), some.groundtruth.size()) << run.name;
+  }
 }
 
 TEST(StereoOdometryExperiment, InvalidOptionsNameTheField) {

@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -102,8 +103,10 @@ struct NeesResult {
 };
 
 /// Monte-Carlo NEES of the filter: each run draws the initial estimate from the prior
-/// around the truth, a new flight (seed + run) and new noise.
+/// around the truth, a new flight (seed + run) and new noise. `stop`, polled between runs: once
+/// it is true the result covers the runs done (NeesResult::runs; 0: none).
 NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
-                            const fusion::FusionOptions& fusion, std::uint64_t seed);
+                            const fusion::FusionOptions& fusion, std::uint64_t seed,
+                            const std::atomic<bool>* stop = nullptr);
 
 }  // namespace kestrel::lab

@@ -4,6 +4,7 @@
 // `kestrel lab stereo-experiment --odometry` runs it; docs/stereo.md has the figures.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -39,6 +40,8 @@ struct StereoOdometryExperimentOptions {
   /// (sim::SequenceWriter) under it: passive/, active/ (for `kestrel odometry --stereo`).
   std::filesystem::path write_sequences_to;
   bool force = false;  ///< SequenceWriter's force
+  /// Polled between frames: once it is true the run ends early, with the frames done (Ctrl-C).
+  const std::atomic<bool>* stop = nullptr;
 
   /// Throws std::invalid_argument naming the first bad field.
   void validate() const;
@@ -70,6 +73,7 @@ struct StereoOdometryExperimentResult {
   /// pattern-lit pair, tracking the passive left view: a pattern the intensity camera does not
   /// see, e.g. infrared, or a strobed projector).
   std::vector<StereoOdometryRun> runs;
+  bool stopped = false;  ///< ended early by StereoOdometryExperimentOptions::stop
 };
 
 /// Renders and tracks. Throws std::invalid_argument / InputError for invalid options.
