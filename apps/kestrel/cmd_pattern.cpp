@@ -64,10 +64,10 @@ void add_pattern_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--min-thickness", o.min_thickness_px, "thinnest line [px]")
       ->capture_default_str()
-      ->check(whole_in(1, 255, "a whole number of pixels from 1 to 255"));
+      ->check(whole_in(1, 64, "a whole number of pixels from 1 to 64"));
   cmd->add_option("--max-thickness", o.max_thickness_px, "thickest line [px]")
       ->capture_default_str()
-      ->check(whole_in(1, 255, "a whole number of pixels from 1 to 255"));
+      ->check(whole_in(1, 64, "a whole number of pixels from 1 to 64"));
   cmd->add_option("--colors", args->colors, "colour set: primaries, random or white")
       ->capture_default_str();
   cmd->add_flag("--aliased{false}", o.antialiased, "draw hard (not antialiased) lines");
