@@ -417,6 +417,13 @@ void run_odometry(const OdometryArgs& args) {
   for (const char* file : {"rgb.txt", "depth.txt", "groundtruth.txt"}) {
     outputs.input("dataset", args.dataset / file);
   }
+  // Every image the lists name is an input too: no output is written over one, --force or not.
+  for (const char* list : {"rgb.txt", "depth.txt"}) {
+    if (!std::filesystem::exists(args.dataset / list)) continue;
+    for (const io::TimedFile& f : io::read_tum_file_list(args.dataset / list)) {
+      outputs.input("dataset", f.file);
+    }
+  }
   if (!args.camera.empty() && std::filesystem::exists(args.camera)) {
     outputs.input("--camera", args.camera);
   }

@@ -37,6 +37,8 @@ const BadInput kTable[] = {
     {"odometry @seq --camera @cam.yaml --out @notes.txt", 1, "notes.txt: refusing to overwrite"},
     {"odometry @seq --camera @cam.yaml --out @seq/rgb.txt --force", 1,
      "refusing to write over an input"},
+    {"odometry @seq --camera @cam.yaml --out @seq/rgb/1.000000.png --force", 1,
+     "refusing to write over an input"},
     {"odometry @seq --camera @cam.yaml --out @o.txt --config @garbage.bin", 1, "garbage.bin"},
     {"odometry @seq --camera @garbage.bin --out @o.txt", 1, "garbage.bin"},
     {"odometry @seq --camera @cam.yaml --out @o.txt --depth-scale 0", 105, "--depth-scale"},
