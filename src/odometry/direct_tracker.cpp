@@ -23,7 +23,6 @@
 #include "kestrel/odometry/level_solver.hpp"
 #include "kestrel/odometry/point_selection.hpp"
 #include "kestrel/odometry/residual_terms.hpp"
-#include "kestrel/odometry/robust_weights.hpp"
 #include "kestrel/odometry/warp_jacobian.hpp"
 
 namespace kestrel::odometry {
@@ -52,7 +51,6 @@ std::string_view to_string(TrackFailure failure) {
 
 namespace {
 
-using kernels::kLanes;
 using kernels::pad_to_lanes;
 
 double rotation_angle_deg(const SE3& T) { return T.so3().log().norm() * 180.0 / std::numbers::pi; }
