@@ -13,9 +13,11 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/stopwatch.hpp"
 #include "kestrel/eval/csv_writer.hpp"
@@ -30,9 +32,8 @@
 #include "kestrel/odometry/stereo_odometry.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
-#include "interrupt.hpp"
-#include "progress.hpp"
 #include "option_checks.hpp"
+#include "progress.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -43,7 +44,7 @@ struct OdometryArgs {
   std::filesystem::path dataset;
   std::filesystem::path out;
   std::filesystem::path config;
-  std::filesystem::path frames;  // --frames: per-frame health CSV
+  std::filesystem::path frames;    // --frames: per-frame health CSV
   std::filesystem::path plot_dir;  // --plot: the evaluation's CSVs and figures (needs ground truth)
   std::string camera;
   std::optional<double> depth_scale;  // --depth-scale: depth PNG units per metre
@@ -59,8 +60,8 @@ struct OdometryArgs {
 };
 
 void print_options(const odometry::DirectTrackerOptions& options, const OdometryArgs& args) {
-  std::cerr << "tracker options" << (args.config.empty() ? " (defaults)" : " from " + args.config.string())
-            << ":\n";
+  std::cerr << "tracker options"
+            << (args.config.empty() ? " (defaults)" : " from " + args.config.string()) << ":\n";
   std::istringstream lines(options.to_yaml());
   for (std::string line; std::getline(lines, line);) std::cerr << "  " << line << "\n";
 }
@@ -144,9 +145,9 @@ std::string failure_line(std::size_t i, const odometry::TrackResult& r) {
 
 // What one run did, shared by the RGB-D and the stereo loop.
 struct RunTally {
-  std::size_t frames = 0;    // frames in the sequence
-  std::size_t processed = 0; // frames handled before the end or an interrupt (read or skipped)
-  std::size_t tracked = 0;   // frames tracked (ok), the first one included
+  std::size_t frames = 0;     // frames in the sequence
+  std::size_t processed = 0;  // frames handled before the end or an interrupt (read or skipped)
+  std::size_t tracked = 0;    // frames tracked (ok), the first one included
   std::size_t failures = 0, keyframes = 0, fallbacks = 0;
   std::vector<std::string> skipped;  // unreadable frames, with the reason
   std::vector<std::string> failure_lines;
@@ -206,6 +207,62 @@ void finish_run(const OdometryArgs& args, const Trajectory& trajectory, FrameLog
   }
 }
 
+// One tracked frame: its time, the tracker's result and the tracking time.
+struct TrackedFrame {
+  TimeNs t_ns = 0;
+  odometry::TrackResult result;
+  double ms = 0.0;
+};
+
+// The frame loop of both modes: Ctrl-C between frames, the tally, the per-frame log, the
+// trajectory and the progress bar. `load(i)` reads frame i (an InputError skips it, or ends the
+// run with --strict); `track(images, i)` tracks it, or returns nothing for a frame it skipped.
+// Returns the --strict stop, if any.
+template <class Load, class Track>
+std::optional<StrictStop> run_frames(std::size_t count, const char* label, const OdometryArgs& args,
+                                     const InterruptScope& interrupt, RunTally& tally,
+                                     FrameLog& frame_log, Trajectory& trajectory, Load&& load,
+                                     Track&& track) {
+  ProgressBar progress(label, count);
+  std::optional<StrictStop> strict_stop;
+  try {
+    for (std::size_t i = 0; i < count; ++i) {
+      if (interrupt.requested()) {
+        tally.interrupted = true;
+        break;
+      }
+      tally.processed = i + 1;
+      decltype(load(i)) images;
+      try {
+        images = load(i);  // decoding: not timed
+      } catch (const InputError& e) {
+        skip_frame(tally, args, i, e.what());
+        continue;
+      }
+      const std::optional<TrackedFrame> f = track(images, i);
+      if (!f) continue;
+      if (!trajectory.empty()) tally.ms.push_back(f->ms);
+      frame_log.add(i, f->result, f->ms);
+      if (f->result.ok()) {
+        ++tally.tracked;
+      } else {
+        ++tally.failures;
+        if (tally.failure_lines.size() < 20)
+          tally.failure_lines.push_back(failure_line(i, f->result));
+      }
+      tally.keyframes += f->result.new_keyframe ? 1 : 0;
+      tally.fallbacks += f->result.geometric_fallback ? 1 : 0;
+      trajectory.push_back({f->t_ns, f->result.T_world_cam});
+      progress.update(i + 1);
+    }
+  } catch (const StrictStop& stop) {
+    strict_stop = stop;
+  }
+  progress.finish();
+  for (const auto& line : tally.failure_lines) std::cerr << "failure: " << line << "\n";
+  return strict_stop;
+}
+
 void evaluate_and_print(const Trajectory& gt, const Trajectory& trajectory,
                         const OdometryArgs& args) {
   try {
@@ -241,9 +298,9 @@ void check_plot_dir(const OdometryArgs& args, bool has_groundtruth, io::OutputGu
 
 // The block matcher's options: the YAML file (if any), then the flags given.
 sensor::BlockMatcherOptions matcher_options(const OdometryArgs& args) {
-  sensor::BlockMatcherOptions o = args.matcher_options.empty()
-                                      ? sensor::BlockMatcherOptions{}
-                                      : sensor::BlockMatcherOptions::load_yaml(args.matcher_options);
+  sensor::BlockMatcherOptions o =
+      args.matcher_options.empty() ? sensor::BlockMatcherOptions{}
+                                   : sensor::BlockMatcherOptions::load_yaml(args.matcher_options);
   if (args.block != 0) o.block_size = args.block;
   if (args.max_disparity != 0) o.max_disparity = args.max_disparity;
   if (args.min_disparity >= 0) o.min_disparity = args.min_disparity;
@@ -251,7 +308,8 @@ sensor::BlockMatcherOptions matcher_options(const OdometryArgs& args) {
     o.validate();
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("stereo matcher options (--block, --max-disparity, "
-                                 "--min-disparity, --matcher-options): ") + e.what());
+                                 "--min-disparity, --matcher-options): ") +
+                     e.what());
   }
   return o;
 }
@@ -269,14 +327,15 @@ Trajectory rectified_camera_groundtruth(const io::EurocSequence& sequence,
   const bool camera_gt = csv->parent_path().filename() == "groundtruth_cam0";
   const io::CameraFile cam0 = sequence.cam0_calibration();
   if (!camera_gt && !cam0.T_body_sensor) {
-    throw InputError(sequence.mav0() / "cam0" / "sensor.yaml", "T_BS",
-                     "missing (needed to compare with the body ground truth " + csv->string() + ")");
+    throw InputError(
+        sequence.mav0() / "cam0" / "sensor.yaml", "T_BS",
+        "missing (needed to compare with the body ground truth " + csv->string() + ")");
   }
   const SE3 T_cam0_rect(SO3::from_matrix(R_rect_left.transpose()), Eigen::Vector3d::Zero());
   for (const StampedPose& p : io::read_euroc_trajectory(*csv)) {
-    const SE3 T_world_cam0 =
-        camera_gt ? SE3(p.T_world_body.so3().inverse(), p.T_world_body.translation())
-                  : p.T_world_body * *cam0.T_body_sensor;
+    const SE3 T_world_cam0 = camera_gt
+                                 ? SE3(p.T_world_body.so3().inverse(), p.T_world_body.translation())
+                                 : p.T_world_body * *cam0.T_body_sensor;
     gt.push_back({p.t_ns, T_world_cam0 * T_cam0_rect});
   }
   return gt;
@@ -284,8 +343,9 @@ Trajectory rectified_camera_groundtruth(const io::EurocSequence& sequence,
 
 void run_stereo_odometry(const OdometryArgs& args) {
   if (!args.camera.empty()) {
-    throw InputError("--camera: not used with --stereo (the rig comes from the EuRoC folder's "
-                     "cam0/cam1 sensor.yaml)");
+    throw InputError(
+        "--camera: not used with --stereo (the rig comes from the EuRoC folder's "
+        "cam0/cam1 sensor.yaml)");
   }
   if (args.depth_scale) {
     throw InputError("--depth-scale: not used with --stereo (depth comes from the disparity)");
@@ -299,7 +359,8 @@ void run_stereo_odometry(const OdometryArgs& args) {
   outputs.input("dataset", args.dataset)
       .input("--config", args.config)
       .input("--matcher-options", args.matcher_options);
-  for (const char* file : {"cam0/data.csv", "cam1/data.csv", "cam0/sensor.yaml", "cam1/sensor.yaml"}) {
+  for (const char* file :
+       {"cam0/data.csv", "cam1/data.csv", "cam0/sensor.yaml", "cam1/sensor.yaml"}) {
     outputs.input("dataset", sequence.mav0() / file);
   }
   if (const auto gt_csv = sequence.groundtruth_csv()) outputs.input("dataset", *gt_csv);
@@ -315,8 +376,9 @@ void run_stereo_odometry(const OdometryArgs& args) {
             << "matcher: " << matching.describe() << "\n";
   print_options(options, args);
   if (sequence.stereo_size() == 0) {
-    throw InputError(args.dataset.string() + ": no stereo pairs (cam0 and cam1 frames with equal "
-                                             "time stamps in mav0/cam0/data.csv, mav0/cam1/data.csv)");
+    throw InputError(args.dataset.string() +
+                     ": no stereo pairs (cam0 and cam1 frames with equal "
+                     "time stamps in mav0/cam0/data.csv, mav0/cam1/data.csv)");
   }
 
   const Trajectory gt = rectified_camera_groundtruth(sequence, stereo.R_rect_left());
@@ -327,51 +389,24 @@ void run_stereo_odometry(const OdometryArgs& args) {
   RunTally tally;
   tally.frames = sequence.stereo_size();
   double fill_sum = 0.0;
-  std::optional<StrictStop> strict_stop;
   FrameLog frame_log(args.frames, args.force);
   const InterruptScope interrupt;
-  ProgressBar progress("odometry --stereo", sequence.stereo_size());
-  try {
-    for (std::size_t i = 0; i < sequence.stereo_size(); ++i) {
-      if (interrupt.requested()) {
-        tally.interrupted = true;
-        break;
-      }
-      tally.processed = i + 1;
-      io::StereoImages images;
-      try {
-        images = sequence.load_stereo(i);  // decoding: not timed
-      } catch (const InputError& e) {
-        skip_frame(tally, args, i, e.what());
-        continue;
-      }
-      const auto t0 = std::chrono::steady_clock::now();
-      const odometry::StereoTrackResult r = stereo.track(images.t_ns, images.left, images.right);
-      const double track_ms = ms_since(t0);
-      if (r.track.failure == odometry::TrackFailure::kInvalidInput) {
-        skip_frame(tally, args, i,
-                   "stereo pair t_ns " + std::to_string(images.t_ns) +
-                       " (mav0/cam0 and mav0/cam1): " + r.track.failure_detail);
-        continue;
-      }
-      if (!trajectory.empty()) tally.ms.push_back(track_ms);
-      frame_log.add(i, r.track, track_ms);
-      fill_sum += r.match.fill_rate();
-      if (r.track.ok()) {
-        ++tally.tracked;
-      } else {
-        ++tally.failures;
-        if (tally.failure_lines.size() < 20) tally.failure_lines.push_back(failure_line(i, r.track));
-      }
-      tally.keyframes += r.track.new_keyframe ? 1 : 0;
-      trajectory.push_back({images.t_ns, r.track.T_world_cam});
-      progress.update(i + 1);
-    }
-  } catch (const StrictStop& stop) {
-    strict_stop = stop;
-  }
-  progress.finish();
-  for (const auto& line : tally.failure_lines) std::cerr << "failure: " << line << "\n";
+  const std::optional<StrictStop> strict_stop = run_frames(
+      sequence.stereo_size(), "odometry --stereo", args, interrupt, tally, frame_log, trajectory,
+      [&](std::size_t i) { return sequence.load_stereo(i); },
+      [&](const io::StereoImages& images, std::size_t i) -> std::optional<TrackedFrame> {
+        const auto t0 = std::chrono::steady_clock::now();
+        const odometry::StereoTrackResult r = stereo.track(images.t_ns, images.left, images.right);
+        const double track_ms = ms_since(t0);
+        if (r.track.failure == odometry::TrackFailure::kInvalidInput) {
+          skip_frame(tally, args, i,
+                     "stereo pair t_ns " + std::to_string(images.t_ns) +
+                         " (mav0/cam0 and mav0/cam1): " + r.track.failure_detail);
+          return std::nullopt;
+        }
+        fill_sum += r.match.fill_rate();
+        return TrackedFrame{images.t_ns, r.track, track_ms};
+      });
   finish_run(args, trajectory, frame_log, tally, strict_stop, interrupt);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses of the "
             << "rectified left camera, " << tally.keyframes << " keyframes, " << tally.failures
@@ -397,8 +432,9 @@ void run_odometry(const OdometryArgs& args) {
   }
   if (!args.matcher_options.empty() || args.block != 0 || args.max_disparity != 0 ||
       args.min_disparity >= 0) {
-    throw InputError("--block, --max-disparity, --min-disparity and --matcher-options need "
-                     "--stereo");
+    throw InputError(
+        "--block, --max-disparity, --min-disparity and --matcher-options need "
+        "--stereo");
   }
   std::string camera_name = args.camera;
   if (camera_name.empty()) camera_name = default_camera_for(args.dataset);
@@ -438,7 +474,8 @@ void run_odometry(const OdometryArgs& args) {
             << "camera " << camera_name << ": " << camera.describe() << "\n"
             << "depth: " << sequence_options.depth_scale << " PNG units per metre\n";
   print_options(options, args);
-  if (sequence.size() == 0) throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
+  if (sequence.size() == 0)
+    throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
   const auto gt = sequence.groundtruth();
   check_plot_dir(args, gt.has_value(), outputs);
 
@@ -448,46 +485,18 @@ void run_odometry(const OdometryArgs& args) {
   RunTally tally;
   tally.frames = sequence.size();
   tally.ms.reserve(sequence.size());
-  std::optional<StrictStop> strict_stop;
   FrameLog frame_log(args.frames, args.force);
   const InterruptScope interrupt;
-  ProgressBar progress("odometry", sequence.size());
-  try {
-    for (std::size_t i = 0; i < sequence.size(); ++i) {
-      if (interrupt.requested()) {
-        tally.interrupted = true;
-        break;
-      }
-      tally.processed = i + 1;
-      io::RgbdImages images;
-      try {
-        images = sequence.load(i);  // decoding: not timed
-      } catch (const InputError& e) {
-        skip_frame(tally, args, i, e.what());
-        continue;
-      }
-      odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
-      const auto t0 = std::chrono::steady_clock::now();
-      const odometry::TrackResult r = tracker.track(frame);
-      const double track_ms = ms_since(t0);
-      if (!trajectory.empty()) tally.ms.push_back(track_ms);
-      frame_log.add(i, r, track_ms);
-      if (r.ok()) {
-        ++tally.tracked;
-      } else {
-        ++tally.failures;
-        if (tally.failure_lines.size() < 20) tally.failure_lines.push_back(failure_line(i, r));
-      }
-      tally.keyframes += r.new_keyframe ? 1 : 0;
-      tally.fallbacks += r.geometric_fallback ? 1 : 0;
-      trajectory.push_back({images.t_ns, r.T_world_cam});
-      progress.update(i + 1);
-    }
-  } catch (const StrictStop& stop) {
-    strict_stop = stop;
-  }
-  progress.finish();
-  for (const auto& line : tally.failure_lines) std::cerr << "failure: " << line << "\n";
+  const std::optional<StrictStop> strict_stop = run_frames(
+      sequence.size(), "odometry", args, interrupt, tally, frame_log, trajectory,
+      [&](std::size_t i) { return sequence.load(i); },
+      [&](const io::RgbdImages& images, std::size_t) -> std::optional<TrackedFrame> {
+        const odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
+        const auto t0 = std::chrono::steady_clock::now();
+        odometry::TrackResult r = tracker.track(frame);
+        const double track_ms = ms_since(t0);
+        return TrackedFrame{images.t_ns, std::move(r), track_ms};
+      });
   finish_run(args, trajectory, frame_log, tally, strict_stop, interrupt);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses, "
             << tally.keyframes << " keyframes, " << tally.failures << " failures, "
@@ -533,7 +542,8 @@ void add_odometry_command(CLI::App& app) {
   cmd->add_option("--max-disparity", args->max_disparity,
                   "--stereo: disparities searched: min <= d < max (default 64)")
       ->check(whole_in(1, 1024, "a whole number of pixels from 1 to 1024"));
-  cmd->add_option("--min-disparity", args->min_disparity, "--stereo: smallest disparity (default 0)")
+  cmd->add_option("--min-disparity", args->min_disparity,
+                  "--stereo: smallest disparity (default 0)")
       ->check(whole_in(0, 1023, "a whole number of pixels from 0 to 1023"));
   cmd->add_option("--matcher-options", args->matcher_options,
                   "--stereo: block matcher options YAML (the flags above override it)")
