@@ -13,10 +13,10 @@
 #   1. host tools: g++-aarch64-linux-gnu and qemu-user-static from apt (nothing else of the host
 #      changes: no foreign architecture is added to dpkg, no arm64 package is installed);
 #   2. the sysroot build/arm64-sysroot (KESTREL_ARM64_SYSROOT): Debian's arm64 packages,
-#      downloaded with a private apt state (build/arm64-sysroot-apt) and unpacked with `dpkg -x`: the
-#      -dev packages the build needs, then every shared library they need at run time, found by
-#      walking the ELF DT_NEEDED entries (the host's dpkg database names the package of each
-#      library). Made once; skipped while its stamp matches this script's package list;
+#      downloaded with a private apt state (build/arm64-sysroot-apt) and unpacked with
+#      `dpkg -x`: the -dev packages the build needs, then every shared library they need at run
+#      time, found by walking the ELF DT_NEEDED entries (the host's dpkg database names the
+#      package of each library). Made once; skipped while its stamp matches this script's lists;
 #   3. configure build/arm64 with cmake/toolchains/aarch64-linux-gnu.cmake (Release, tests on;
 #      bench, CUDA, ROS, fuzzing off), build only the test targets of the chosen set;
 #   4. ctest under qemu-aarch64 (the toolchain's CMAKE_CROSSCOMPILING_EMULATOR).
@@ -36,7 +36,7 @@ while [ $# -gt 0 ]; do
     --full) mode=full ;;
     --jobs) jobs="$2"; shift ;;
     --jobs=*) jobs="${1#--jobs=}" ;;
-    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "check_arm64: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
