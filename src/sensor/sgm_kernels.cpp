@@ -227,29 +227,51 @@ void AggregateRow(const AggregateRowArgs& a) {
   }
 }
 
+// The winner of pixel x: least summed cost and its first lane.
+HWY_INLINE void winner(const DecideRowArgs& a, int x) {
+  const D16 d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const std::uint16_t* s = a.sum + static_cast<std::ptrdiff_t>(x) * a.lanes;
+  V16 least = hn::LoadU(d, s);
+  for (int k = n; k < a.lanes; k += n) least = hn::Min(least, hn::LoadU(d, s + k));
+  const std::uint16_t best_cost = least_lane(d, least);
+  least = hn::Set(d, best_cost);
+  int best = 0;
+  for (int k = 0; k < a.lanes; k += n) {
+    const intptr_t first = hn::FindFirstTrue(d, hn::Eq(hn::LoadU(d, s + k), least));
+    if (first >= 0) {
+      best = k + static_cast<int>(first);
+      break;
+    }
+  }
+  a.best[x] = best;
+  a.best_cost[x] = best_cost;
+}
+
+// Right to left, the lanes of right_min_rev that pixel x can still reach (W - 1 - x + k) are a
+// window in `window` (whole vectors: reloads of what was just stored are forwarded); after
+// pixel x its first lane is final, and the window moves one lane.
 void DecideRow(const DecideRowArgs& a) {
   const D16 d;
   const int n = static_cast<int>(hn::Lanes(d));
-  for (int x = 0; x < a.width; ++x) {
+  const V16 masked = hn::Set(d, kSgmMaskedCost);
+  std::uint16_t* window = a.right_min_rev + a.width;  // scratch: lanes entries past the row
+  for (int k = 0; k < a.lanes; k += n) hn::StoreU(masked, d, window + k);
+  for (int x = a.width - 1; x >= 0; --x) {
+    winner(a, x);
     const std::uint16_t* s = a.sum + static_cast<std::ptrdiff_t>(x) * a.lanes;
-    std::uint16_t* r = a.right_min_rev + (a.width - 1 - x);
-    V16 least = hn::Set(d, kSgmMaskedCost);
+    V16 cur = hn::Min(hn::LoadU(d, window), hn::LoadU(d, s));
+    a.right_min_rev[a.width - 1 - x] = hn::GetLane(cur);
     for (int k = 0; k < a.lanes; k += n) {
-      const V16 v = hn::LoadU(d, s + k);
-      least = hn::Min(least, v);
-      hn::StoreU(hn::Min(v, hn::LoadU(d, r + k)), d, r + k);
+      const V16 next =
+          k + n < a.lanes ? hn::Min(hn::LoadU(d, window + k + n), hn::LoadU(d, s + k + n)) : masked;
+#if HWY_TARGET == HWY_SCALAR
+      hn::StoreU(next, d, window + k);
+#else
+      hn::StoreU(shift_down(cur, next), d, window + k);
+#endif
+      cur = next;
     }
-    least = hn::Set(d, least_lane(d, least));
-    int best = 0;
-    for (int k = 0; k < a.lanes; k += n) {
-      const intptr_t first = hn::FindFirstTrue(d, hn::Eq(hn::LoadU(d, s + k), least));
-      if (first >= 0) {
-        best = k + static_cast<int>(first);
-        break;
-      }
-    }
-    a.best[x] = best;
-    a.best_cost[x] = hn::GetLane(least);
   }
 }
 

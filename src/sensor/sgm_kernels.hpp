@@ -86,10 +86,10 @@ struct AggregateRowArgs {
 };
 
 /// Winner-take-all over one row of summed costs: best[x] = the FIRST lane of least cost,
-/// best_cost[x] its cost; right_min_rev[width - 1 - x + k] = min(itself, sum(x, k)), which
-/// leaves in right_min_rev[width - 1 - xr] the least summed cost of the right pixel xr over its
-/// disparities (the left-right check's reference). The caller fills right_min_rev
-/// (width + lanes entries) with kSgmMaskedCost first.
+/// best_cost[x] its cost; and for the left-right check, the least summed cost of each right
+/// pixel over its disparities: right_min_rev[j] = min_k sum(width - 1 - j + k, k), the right
+/// pixel width - 1 - min_disparity - j (j < width; right_min_rev has width + lanes entries, the
+/// last ones scratch).
 struct DecideRowArgs {
   const std::uint16_t* sum = nullptr;
   int width = 0, lanes = 0;

@@ -91,8 +91,14 @@ void decide_row(const DecideRowArgs& a) {
     }
     a.best[x] = best;
     a.best_cost[x] = s[best];
-    std::uint16_t* r = a.right_min_rev + (a.width - 1 - x);
-    for (int k = 0; k < a.lanes; ++k) r[k] = std::min(r[k], s[k]);
+  }
+  for (int j = 0; j < a.width; ++j) {  // right pixel xr = width - 1 - min_disparity - j
+    std::uint16_t least = kSgmMaskedCost;
+    for (int k = 0; k < a.lanes && j - k >= 0; ++k) {
+      const int x = a.width - 1 - j + k;  // the left pixel whose lane k is that right pixel
+      least = std::min(least, a.sum[static_cast<std::ptrdiff_t>(x) * a.lanes + k]);
+    }
+    a.right_min_rev[j] = least;
   }
 }
 

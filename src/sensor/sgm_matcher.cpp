@@ -288,7 +288,6 @@ bool SgmMatcher::left_right_consistent(int x, int k) const {
 // Row y, all paths summed in total_: winners, subpixel parabola, and the left-right check's
 // verdict (applied by finish(), after the median).
 void SgmMatcher::decide_row(int y, float* out) {
-  std::fill(right_min_rev_.begin(), right_min_rev_.end(), kSgmMaskedCost);
   sgm::DecideRowArgs a;
   a.sum = total_.data();
   a.width = width_;

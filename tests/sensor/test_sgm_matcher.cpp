@@ -113,6 +113,7 @@ TEST(SgmMatcher, LeftRightCheckDropsTheOccludedStrip) {
   fg(cv::Rect(0, 0, 50, 50)).copyTo(r(cv::Rect(80, 25, 50, 50)));
   SgmOptions o;
   o.max_disparity = 32;
+  o.lr_max_diff = 1;
   SgmMatcher m(o);
   cv::Mat disp;
   const MatchStats s = m.match(l, r, disp);
@@ -129,6 +130,8 @@ TEST(SgmMatcher, LeftRightCheckDropsTheOccludedStrip) {
 std::vector<SgmOptions> kernel_option_sets() {
   std::vector<SgmOptions> sets;
   SgmOptions o;
+  sets.push_back(o);
+  o.lr_max_diff = 1;
   sets.push_back(o);
   o.paths = 4;
   o.min_disparity = 3;
@@ -212,7 +215,7 @@ TEST(SgmMatcher, BadOptionsAreRejectedWithAMessage) {
   EXPECT_NE(
       with([](SgmOptions& o) { o.census = CensusPattern::kFull; }).find("it must have 1 to 32"),
       std::string::npos);
-  EXPECT_NE(with([](SgmOptions& o) { o.p2 = 3; }).find("p2 (3) must be >= p1 (7)"),
+  EXPECT_NE(with([](SgmOptions& o) { o.p2 = 3; }).find("p2 (3) must be >= p1 (12)"),
             std::string::npos);
   EXPECT_NE(with([](SgmOptions& o) { o.speckle_size = -1; }).find("speckle_size"),
             std::string::npos);
