@@ -16,6 +16,7 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/option_fields.hpp"
 #include "kestrel/sensor/sgm_matcher.hpp"
+#include "kestrel/sensor/stereo_front_end.hpp"
 #include "kestrel/sensor/stereo_matcher.hpp"
 #include "test_data.hpp"
 
@@ -264,6 +265,32 @@ TEST(StereoMatcher, NamesSelectTheMatcher) {
     EXPECT_GT(s.fill_rate(), 0.5) << to_string(k);
     EXPECT_NEAR(d.at<float>(30, 75), 8.0F, 0.5F) << to_string(k);
   }
+}
+
+TEST(StereoFrontEnd, SelectsTheSemiGlobalMatcher) {
+  cv::Mat l, r;
+  shifted_pair(random_dots(160 + 6, 80, 13, 0.8), 6, l, r);
+  StereoFrontEndOptions o;
+  o.matcher.max_disparity = 24;  // the range of either matcher
+  o.compute_depth = true;
+  o.kind = StereoMatcherKind::kSgm;
+  StereoFrontEnd front(RectifiedStereo::centred(l.cols, l.rows, 300.0, 0.1), o);
+  EXPECT_EQ(front.matcher().kind(), StereoMatcherKind::kSgm);
+  EXPECT_NE(front.matcher().describe().find("disparity=[0,24)"), std::string::npos);
+  StereoDepthFrame frame;
+  front.process(0, l, r, frame);
+  EXPECT_GT(frame.match.fill_rate(), 0.95);
+  EXPECT_NEAR(frame.disparity_px.at<float>(40, 80), 6.0F, 0.5F);
+  EXPECT_NEAR(frame.depth_m.at<float>(40, 80), 300.0F * 0.1F / 6.0F, 0.5F);
+  // Without a kind, the block matcher's cost decides, as configurations written before.
+  o.kind.reset();
+  o.matcher.cost = MatchingCost::kCensus;
+  EXPECT_EQ(
+      StereoFrontEnd(RectifiedStereo::centred(l.cols, l.rows, 300.0, 0.1), o).matcher().kind(),
+      StereoMatcherKind::kCensus);
+  o.kind = StereoMatcherKind::kSgm;
+  o.sgm.paths = 5;
+  EXPECT_THROW(StereoFrontEnd(RectifiedStereo::centred(l.cols, l.rows, 300.0, 0.1), o), InputError);
 }
 
 }  // namespace
