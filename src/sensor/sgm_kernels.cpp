@@ -194,25 +194,42 @@ HWY_INLINE std::uint16_t pixel_paths(const AggregateRowArgs& a, int x, PixelPath
   return least_lane(d, p.least[0]);
 }
 
+// P2 of each path at every pixel of the row (eq. 16), in a plain loop before the recursion so
+// that the per-pixel work there is loads only: row r of `p2` is path r (0: horizontal).
+template <int NV>
+HWY_INLINE void row_penalties(const AggregateRowArgs& a, std::uint16_t* p2) {
+  const int w = a.width;
+  for (int x = 0; x < w; ++x) {
+    const int xh = std::clamp(x - a.step, 0, w - 1);
+    p2[x] = a.p2_lut[std::abs(int{a.image[x]} - int{a.image[xh]})];
+  }
+  for (int r = 0; r < NV; ++r) {
+    std::uint16_t* row = p2 + static_cast<std::ptrdiff_t>(r + 1) * w;
+    const int dx = a.vertical[r].dx;
+    for (int x = 0; x < w; ++x) {
+      const int xv = std::clamp(x + dx, 0, w - 1);
+      row[x] = a.p2_lut[std::abs(int{a.image[x]} - int{a.image_prev[xv]})];
+    }
+  }
+}
+
 template <int NV>
 void aggregate(const AggregateRowArgs& a) {
   const int stride = a.lanes + kSgmGuard;
   const int x0 = a.step > 0 ? 0 : a.width - 1;
+  row_penalties<NV>(a, a.p2_scratch);
   const std::uint16_t* h_prev = a.horizontal + kSgmGuard;  // the masked slot
   std::uint16_t h_min = kSgmMaskedCost;
   PixelPaths<NV + 1> p;
   for (int i = 0; i < a.width; ++i) {
     const int x = x0 + i * a.step;
-    const int xh = std::clamp(x - a.step, 0, a.width - 1);
     std::uint16_t* h_cur = a.horizontal + (1 + (i & 1)) * stride + kSgmGuard;
-    p.set(0, h_prev, h_min, a.p2_lut[std::abs(int{a.image[x]} - int{a.image[xh]})], h_cur);
+    p.set(0, h_prev, h_min, a.p2_scratch[x], h_cur);
     for (int r = 0; r < NV; ++r) {
       const PathRows& v = a.vertical[r];
       const int slot = x + 1 + v.dx;
-      const int xv = std::clamp(x + v.dx, 0, a.width - 1);
-      const int dv = std::abs(int{a.image[x]} - int{a.image_prev[xv]});
-      p.set(r + 1, v.prev + slot * stride + kSgmGuard, v.prev_min[slot], a.p2_lut[dv],
-            v.cur + (x + 1) * stride + kSgmGuard);
+      p.set(r + 1, v.prev + slot * stride + kSgmGuard, v.prev_min[slot],
+            a.p2_scratch[(r + 1) * a.width + x], v.cur + (x + 1) * stride + kSgmGuard);
     }
     h_min = pixel_paths<NV>(a, x, p);
     h_prev = h_cur;

@@ -80,6 +80,7 @@ struct AggregateRowArgs {
   const std::uint8_t* image = nullptr;       ///< this row of the left image
   const std::uint8_t* image_prev = nullptr;  ///< the previous row on the vertical paths
   const std::uint16_t* p2_lut = nullptr;     ///< 256 entries, each >= p1
+  std::uint16_t* p2_scratch = nullptr;       ///< 4 x width: P2 per path and pixel (scratch)
   std::uint16_t p1 = 0;
   int width = 0, lanes = 0;
   int step = 1;

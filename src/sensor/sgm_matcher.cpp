@@ -158,6 +158,7 @@ void SgmMatcher::prepare(int width, int height) {
   horizontal_.assign(3 * (lanes + kSgmGuard), kSgmMaskedCost);
   best_.assign(w, 0);
   best_cost_.assign(w, 0);
+  p2_row_.assign(4 * w, 0);
   rejected_.assign(w * h, 0);
   right_min_rev_.assign(w + lanes, kSgmMaskedCost);
 }
@@ -257,6 +258,7 @@ void SgmMatcher::pass(int dir, cv::Mat& disparity) {
     a.image = left_.ptr<std::uint8_t>(y);
     a.image_prev = left_.ptr<std::uint8_t>(i == 0 ? y : y - dir);
     a.p2_lut = p2_lut_.data();
+    a.p2_scratch = p2_row_.data();
     a.p1 = static_cast<std::uint16_t>(options_.p1);
     a.width = width_;
     a.lanes = lanes_;

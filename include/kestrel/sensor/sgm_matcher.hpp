@@ -169,7 +169,7 @@ class SgmMatcher {
   std::vector<std::uint16_t> census_l_lo_, census_l_hi_;  // H x (W + 32)
   std::vector<std::uint16_t> census_r_lo_, census_r_hi_;
   std::vector<std::uint16_t> rev_lo_, rev_hi_;  // one right row, reversed
-  std::vector<std::uint16_t> pad_mask_, p2_lut_;
+  std::vector<std::uint16_t> pad_mask_, p2_lut_, p2_row_;
   detail::AlignedU16 cost_;    // one row: W x lanes
   detail::AlignedU16 volume_;  // H x W x lanes: the top-down pass's sums
   detail::AlignedU16 total_;   // one row: all paths summed
