@@ -185,10 +185,9 @@ void print_usage(std::FILE* to) {
                KESTREL_DEFAULT_DATA_DIR);
 }
 
-int run(const fs::path& data, bool quick) {
-  cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
+/// Every matcher of the comparison, each run with its options for a given disparity count.
+std::vector<Peer> make_peers() {
   using kestrel::sensor::MatchingCost;
-
   std::vector<Peer> peers;
   peers.push_back({"kestrel sad", [](const cv::Mat& l, const cv::Mat& r, int n) {
                      BlockMatcher m(kestrel_options(n, MatchingCost::kSad, true));
@@ -224,7 +223,11 @@ int run(const fs::path& data, bool quick) {
                      make_sgbm(n)->compute(l, r, d);
                      return from_fixed(d);
                    }});
+  return peers;
+}
 
+/// The bad-pixel table: a row per Middlebury scene, a column per peer.
+void print_middlebury_table(const std::vector<Peer>& peers, const fs::path& data) {
   // --- Middlebury: bad pixels (> 1 px or missing) over pixels with known truth.
   if (!fs::is_directory(data)) {
     throw kestrel::InputError("DATA_DIR '" + data.string() + "' is not a folder");
@@ -234,18 +237,26 @@ int run(const fs::path& data, bool quick) {
               "2014: non-occluded pixels) / fill %%; disparities searched in brackets\n",
               kBlock);
   std::printf("%-18s", "scene");
-  for (const auto& peer : peers) std::printf(" %15.15s", peer.name.c_str());
+  for (const auto& peer : peers) std::printf(" %20s", peer.name.c_str());
   std::printf("\n");
   for (const auto& p : pairs) {
     std::printf("%-12s (%3d)", p.name.c_str(), p.num_disparities);
     for (const auto& peer : peers) {
       const cv::Mat d = peer.run(p.left, p.right, p.num_disparities);
       const auto s = kestrel::lab::score_disparity(d, p.truth, 1.0, p.mask);
-      std::printf("   %5.1f / %5.1f", 100.0 * s.bad_rate(), 100.0 * s.fill_rate());
+      std::printf("        %5.1f / %5.1f", 100.0 * s.bad_rate(), 100.0 * s.fill_rate());
     }
     std::printf("\n");
     std::fflush(stdout);
   }
+}
+
+int run(const fs::path& data, bool quick) {
+  cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
+  using kestrel::sensor::MatchingCost;
+
+  const std::vector<Peer> peers = make_peers();
+  print_middlebury_table(peers, data);
 
   // --- EuRoC: speed per rectified pair and fill rate over the part.
   const fs::path euroc = data / "euroc" / "V1_01_easy_part1";
