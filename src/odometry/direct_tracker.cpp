@@ -55,12 +55,11 @@ using kernels::pad_to_lanes;
 
 double rotation_angle_deg(const SE3& T) { return T.so3().log().norm() * 180.0 / std::numbers::pi; }
 
-// How the current image is sampled on the finest or a coarser level (bicubic_finest_level,
-// bicubic_coarse_levels).
+// How the current image is sampled on the finest level (bicubic_finest_level); the coarser
+// levels are sampled bilinearly (docs/odometry.md, "Bicubic on the coarser levels too").
 image::Interpolation level_sampling(const DirectTrackerOptions& o, bool finest) {
-  return (finest ? o.bicubic_finest_level : o.bicubic_coarse_levels)
-             ? image::Interpolation::kBicubic
-             : image::Interpolation::kBilinear;
+  return finest && o.bicubic_finest_level ? image::Interpolation::kBicubic
+                                          : image::Interpolation::kBilinear;
 }
 
 }  // namespace

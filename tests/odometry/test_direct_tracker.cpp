@@ -147,17 +147,13 @@ TEST_P(KnownMotion, RecoveredFromRenderedPair) {
   const auto ref = render(room, cam, T_world_ref);
   const auto cur = render(room, cam, T_world_ref * mc.T_ref_cur);
   // The photometric alignment, and the joint photometric + point-to-plane one that the
-  // geometric fallback runs (on exact rendered depth: its sigma rests on the noise-model floor);
-  // and the photometric one with bicubic sampling on every level (bicubic_coarse_levels).
-  for (const int variant : {0, 1, 2}) {
+  // geometric fallback runs (on exact rendered depth: its sigma rests on the noise-model floor).
+  for (const int variant : {0, 1}) {
     DirectTrackerOptions o;
     o.use_depth_residual = variant == 1;
-    o.bicubic_coarse_levels = variant == 2;
     DirectTracker tracker(cam, o);
     const TrackResult r = tracker.align_pair(ref, cur);
-    const std::string what = std::string(mc.name) + (variant == 1   ? " (with depth)"
-                                                     : variant == 2 ? " (bicubic on every level)"
-                                                                    : "");
+    const std::string what = std::string(mc.name) + (variant == 1 ? " (with depth)" : "");
     ASSERT_TRUE(r.ok()) << what << ": " << r.failure_detail;
     EXPECT_FALSE(r.geometric_fallback) << what;
     EXPECT_LT(translation_error_m(r.T_ref_cur, mc.T_ref_cur), 1e-3) << what;
@@ -337,8 +333,7 @@ StillCameraRun run_still_camera(const DirectTrackerOptions& options) {
 // The target with the defaults (bicubic sampling on the finest level): bilinear
 // sampling's cost has a kink at integer pixel positions, exactly where a still camera's points
 // land, and the finest level would end there short of the noise floor; the C1 bicubic cost has
-// none (measured 100 of 100 frames, max 0.089 mm, rms 0.036 mm against the covariance's 0.042;
-// with bicubic_coarse_levels too: max 0.071 mm).
+// none (measured 100 of 100 frames, max 0.089 mm, rms 0.036 mm against the covariance's 0.042).
 TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   const StillCameraRun s = run_still_camera(DirectTrackerOptions{});
   RecordProperty("max_translation_error_m", std::to_string(s.max_t_err));
@@ -350,13 +345,12 @@ TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   EXPECT_LT(s.rms, 1.2 * s.predicted_rms);
 }
 
-// REGRESSION GUARD for bilinear sampling (bicubic_finest_level and bicubic_coarse_levels false),
+// REGRESSION GUARD for bilinear sampling on every level (bicubic_finest_level false),
 // not the target, which it misses: measured max 0.113 mm, 4 of 100 frames above 0.1 mm (the
 // kink above).
 TEST(DirectTracker, StillCameraWithBilinearSamplingStaysNearIdentity) {
   DirectTrackerOptions o;
   o.bicubic_finest_level = false;
-  o.bicubic_coarse_levels = false;
   const StillCameraRun s = run_still_camera(o);
   EXPECT_LT(s.max_t_err, 1.3e-4);
   EXPECT_GE(s.within_target, 90);  // measured 96

@@ -84,11 +84,6 @@ struct DirectTrackerOptions {
   /// matching kernel (image::Interpolation) (docs/odometry.md, "Still camera" and "bicubic
   /// sampling on the finest level").
   bool bicubic_finest_level = true;
-  /// The same on the coarser levels (their cost has the same kink). Off by default: on fr1/rpy
-  /// it lowers the rotation error a little and raises the translation error, bicubic on only
-  /// some of the coarse levels moves the rotation error with no trend, and the disparity-space
-  /// (stereo) runs get much worse (docs/odometry.md, "Bicubic on the coarser levels too").
-  bool bicubic_coarse_levels = false;
 
   // --- motion prior and keyframes (thesis 5.2 future work) ---
   bool constant_velocity_prior = true;  ///< initial guess: the last motion, scaled by dt
@@ -177,7 +172,6 @@ struct DirectTrackerOptions {
     v("max_iterations_coarse", max_iterations_coarse);
     v("stop_on_cost_increase", stop_on_cost_increase);
     v("bicubic_finest_level", bicubic_finest_level);
-    v("bicubic_coarse_levels", bicubic_coarse_levels);
     v("constant_velocity_prior", constant_velocity_prior);
     v("use_keyframes", use_keyframes);
     v("keyframe_min_overlap", keyframe_min_overlap);
