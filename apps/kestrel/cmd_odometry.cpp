@@ -76,7 +76,7 @@ class FrameLog {
     std::vector<std::string> columns{
         "frame", "t_ns", "ref_t_ns", "ok", "failure", "converged", "iterations", "sigma",
         "photometric_level", "inlier_ratio", "overlap", "points", "gain", "bias", "new_keyframe",
-        "geometric_fallback", "retried_previous", "fallback_rotation_from_previous", "track_ms",
+        "geometric_fallback", "fallback_rotation_from_previous", "track_ms",
         "sd_tx_m", "sd_ty_m", "sd_tz_m", "sd_rx_deg", "sd_ry_deg", "sd_rz_deg"};
     // clang-format on
     // The full covariance, for `kestrel fuse --vo-frames` (io/odometry_frame_log.hpp).
@@ -95,7 +95,7 @@ class FrameLog {
     c.add(flag(r.converged)).add(std::int64_t{r.iterations}).add(r.sigma);
     c.add(std::int64_t{r.photometric_level}).add(r.inlier_ratio).add(r.overlap);
     c.add(std::int64_t{r.points}).add(r.gain).add(r.bias);
-    c.add(flag(r.new_keyframe)).add(flag(r.geometric_fallback)).add(flag(r.retried_previous));
+    c.add(flag(r.new_keyframe)).add(flag(r.geometric_fallback));
     c.add(flag(r.fallback_rotation_from_previous)).add(track_ms);
     const Eigen::Matrix<double, 6, 1> sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
     for (int k = 0; k < 3; ++k) c.add(sd(k));

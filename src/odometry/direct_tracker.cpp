@@ -126,7 +126,7 @@ struct DirectTracker::Impl {
   // rectified with a known rotation rate (a frame before any motion estimate is not).
   std::optional<image::RollingShutterRectifier> rolling_shutter;
   cv::Mat depth_raw;
-  bool rs_frame_rectified = false, rs_prev_rectified = false, rs_ref_rectified = false;
+  bool rs_frame_rectified = false, rs_ref_rectified = false;
 
   Impl(const PinholeCamera& cam, const DirectTrackerOptions& o) : undistorter(cam) {
     // The rectifier resamples as the finest level is sampled (rolling_shutter.hpp).
@@ -147,8 +147,8 @@ struct DirectTracker::Impl {
   }
 
   // The current frame's images and depth trade places with the previous frame's (buffers
-  // swapped, no copies): the retry and the fallback's rotation use the previous frame in the
-  // other role, then swap back.
+  // swapped, no copies): the fallback's rotation uses the previous frame in the other role, then
+  // swaps back.
   void swap_current_and_previous() {
     std::swap(pyramid, prev_pyramid);
     std::swap(depth, prev_depth);
@@ -861,9 +861,8 @@ TrackResult DirectTracker::track(const DisparityFrame& frame) {
 namespace {
 
 // One frame of the tracking policy (thesis 5.2): the first frame defines the world; later ones
-// are aligned to the keyframe from a constant-velocity prediction, retried against the previous
-// frame where that fails, and switch the keyframe when they leave it; a failure restarts from
-// the frame itself.
+// are aligned to the keyframe from a constant-velocity prediction and switch the keyframe when
+// they leave it; a failure restarts from the frame itself.
 class TrackingStep {
  public:
   TrackingStep(DirectTracker::Impl& m, const DirectTrackerOptions& o, TimeNs t_ns,
@@ -877,32 +876,20 @@ class TrackingStep {
     const SE3 T_ref_guess = m_.T_world_ref.inverse() * T_world_pred;
     AlignOutcome a = AlignRunner::align_with_fallback(m_, o_, T_ref_guess.inverse());
     const bool fallback = a.result.geometric_fallback;
-    const TimeNs keyframe_t_ns = m_.ref_t_ns;
-    const SE3 T_world_keyframe = m_.T_world_ref;
-    const bool retried = retry_previous_frame(T_world_pred, a);
     TrackResult result = a.result;
-    result.retried_previous = retried;
     result.t_ns = t_ns_;
-    // The keyframe's alignment stood, but its reference data were replaced by the previous
-    // frame's for the retry: this frame then becomes the keyframe.
-    const bool keyframe_lost = !retried && m_.ref_t_ns != keyframe_t_ns;
-    if (keyframe_lost) {
-      m_.T_world_ref = T_world_keyframe;
-      m_.ref_t_ns = keyframe_t_ns;
-    }
     if (fallback && result.ok() && o_.fallback_rotation_from_previous_frame) {
       refine_fallback_rotation(a, result);
     }
     result.ref_t_ns = m_.ref_t_ns;
     if (result.ok()) {
-      accept(a.T_cur_ref.inverse(), fallback, keyframe_lost, result);
+      accept(a.T_cur_ref.inverse(), fallback, result);
     } else {
       restart(T_world_pred, result);
     }
     m_.dt_prev = dt_;
     m_.t_prev = t_ns_;
     m_.T_world_prev = result.T_world_cam;
-    m_.rs_prev_rectified = m_.rs_frame_rectified;
     return result;
   }
 
@@ -962,30 +949,6 @@ class TrackingStep {
     return T_world_pred;
   }
 
-  // A failure (typically motion blur against a sharp keyframe) tries the previous frame as the
-  // reference; its result replaces `a` when better. True when it did.
-  bool retry_previous_frame(const SE3& T_world_pred, AlignOutcome& a) {
-    if (a.result.ok() || !o_.retry_previous_frame || m_.ref_t_ns == m_.t_prev) return false;
-    // The previous frame's depth time offset is not kept: none applied.
-    const bool shift = m_.depth_time_shift;
-    m_.swap_current_and_previous();
-    m_.depth_time_shift = false;
-    m_.rs_ref_rectified = m_.rs_prev_rectified;
-    build_reference();
-    m_.swap_current_and_previous();
-    m_.depth_time_shift = shift;
-    m_.T_world_ref = m_.T_world_prev;
-    m_.ref_t_ns = m_.t_prev;
-    const SE3 T_prev_guess = m_.T_world_prev.inverse() * T_world_pred;
-    AlignOutcome b = AlignRunner::align(m_, o_, T_prev_guess.inverse(), AlignTerms::from(o_));
-    b.result.iterations += a.result.iterations;
-    if (b.result.ok() && (!a.result.ok() || b.result.sigma < a.result.sigma)) {
-      a = b;
-      return true;
-    }
-    return false;
-  }
-
   // The fallback's rotation from the previous frame (docs/odometry.md, "The fallback's rotation
   // from the previous frame"); the keyframe alignment's translation is kept.
   void refine_fallback_rotation(AlignOutcome& a, TrackResult& result) {
@@ -1000,12 +963,11 @@ class TrackingStep {
   }
 
   // A tracked frame: its pose, the motion model, and a new keyframe where it leaves the old.
-  void accept(const SE3& T_ref_cur, bool fallback, bool keyframe_lost, TrackResult& result) {
+  void accept(const SE3& T_ref_cur, bool fallback, TrackResult& result) {
     result.T_ref_cur = T_ref_cur;
     result.T_world_cam = m_.T_world_ref * T_ref_cur;
     const bool rs_restart = rolling_shutter_restart();
-    const bool switch_kf =
-        rs_restart || keyframe_lost || leaves_keyframe(T_ref_cur, fallback, result);
+    const bool switch_kf = rs_restart || leaves_keyframe(T_ref_cur, fallback, result);
     m_.velocity = m_.T_world_prev.inverse() * result.T_world_cam;
     m_.has_velocity = true;
     if (!switch_kf) return;

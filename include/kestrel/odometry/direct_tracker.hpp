@@ -83,7 +83,6 @@ struct TrackResult {
   double gain = 0.0;          ///< g of I_ref = (1 + g) I_cur + b
   double bias = 0.0;
   bool new_keyframe = false;  ///< this frame became the reference for the next ones
-  bool retried_previous = false;  ///< aligned to the previous frame after the keyframe failed
   /// The photometric alignment failed (blur) or a finer level jumped away from the coarser
   /// one's estimate, and the geometric fallback was accepted by its own health checks
   /// (DirectTrackerOptions::geometric_fallback).

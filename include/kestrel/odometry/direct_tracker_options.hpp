@@ -94,9 +94,6 @@ struct DirectTrackerOptions {
   double keyframe_min_overlap = 0.8;
   double keyframe_max_rotation_deg = 5.0;      ///< ... or that is rotated by more, ...
   double keyframe_max_translation_rel = 0.05;  ///< ... or moved by more x median depth.
-  /// When the alignment to the keyframe fails, try the previous frame (closer in time, and
-  /// blurred alike in a fast motion) before reporting a failure.
-  bool retry_previous_frame = false;
   /// Geometric fallback (motion blur: depth blurs far less than the colour image): when the
   /// photometric alignment fails with a high residual, or a finer pyramid level moves the
   /// estimate farther than max_level_jump_px from the coarser level's, the pair is aligned again
@@ -177,7 +174,6 @@ struct DirectTrackerOptions {
     v("keyframe_min_overlap", keyframe_min_overlap);
     v("keyframe_max_rotation_deg", keyframe_max_rotation_deg);
     v("keyframe_max_translation_rel", keyframe_max_translation_rel);
-    v("retry_previous_frame", retry_previous_frame);
     v("geometric_fallback", geometric_fallback);
     v("fallback_rotation_from_previous_frame", fallback_rotation_from_previous_frame);
     v("fallback_rotation_coarsest_level", fallback_rotation_coarsest_level);
