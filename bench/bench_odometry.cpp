@@ -408,7 +408,7 @@ const RealSequence& fr1_rpy() {
     const io::TumRgbdSequence tum(folder);
     for (std::size_t i = 0; i < tum.size(); ++i) {
       const io::RgbdImages im = tum.load(i);
-      out.frames.push_back({im.t_ns, im.bgr, im.depth_m, im.depth_t_ns});
+      out.frames.push_back({im.t_ns, im.bgr, im.depth_m});
     }
     return out;
   }();

@@ -491,7 +491,7 @@ void run_odometry(const OdometryArgs& args) {
       sequence.size(), "odometry", args, interrupt, tally, frame_log, trajectory,
       [&](std::size_t i) { return sequence.load(i); },
       [&](const io::RgbdImages& images, std::size_t) -> std::optional<TrackedFrame> {
-        const odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
+        const odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m};
         const auto t0 = std::chrono::steady_clock::now();
         odometry::TrackResult r = tracker.track(frame);
         const double track_ms = ms_since(t0);

@@ -6,7 +6,6 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -107,11 +106,6 @@ struct DirectTracker::Impl {
   TermBuffers photometric_buffers, geometric_buffers;
   std::vector<float> abs_residual;
 
-  // T_rgb_depth of the current frame: maps its depth map's points (taken at depth_t_ns) into
-  // the camera at the image's time (identity when simultaneous or without a motion estimate).
-  SE3 T_rgb_depth;
-  bool depth_time_shift = false;
-
   // Sequence state.
   bool has_prev = false;
   bool has_velocity = false;
@@ -192,11 +186,6 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
         "tracker option use_depth_residual: needs depth maps; not available with "
         "disparity input (stereo)");
   }
-  if (options_.compensate_depth_time_offset) {
-    throw InputError(
-        "tracker option compensate_depth_time_offset: needs depth maps; not "
-        "available with disparity input (stereo)");
-  }
   if (options_.rolling_shutter_readout_s > 0.0) {
     throw InputError(
         "tracker option rolling_shutter_readout_s: RGB-D input only (the stereo "
@@ -221,8 +210,6 @@ void DirectTracker::reset() {
   impl_->has_ref = false;
   impl_->has_prev = false;
   impl_->has_velocity = false;
-  impl_->depth_time_shift = false;
-  impl_->T_rgb_depth = SE3();
   impl_->depth_raw.release();
 }
 
@@ -387,13 +374,11 @@ struct TrackerAccess {
     DisparitySpaceCamera dcam;  // disparity input only
   };
 
-  // A reference point before it is stored: where its depth was read (the pixel itself, or where
-  // its ray was when a time-shifted depth map was taken) and its 3D position.
+  // A reference point before it is stored: its pixel, depth and 3D position.
   struct PointDepth {
     Eigen::Vector3d P;
     double z = 0.0;
-    int ud = 0, vd = 0;
-    bool shifted = false;
+    int u = 0, v = 0;
   };
 
   // Selected pixel `idx` as point i of level L: position, Jacobian (pose, gain, bias) and, for
@@ -407,7 +392,7 @@ struct TrackerAccess {
     const float* img_data = img.ptr<float>();
     const float* gx_data = m.gx.ptr<float>();
     const float* gy_data = m.gy.ptr<float>();
-    PointDepth pd{Eigen::Vector3d::Zero(), src.dep.ptr<float>()[idx], u, v, false};
+    PointDepth pd{Eigen::Vector3d::Zero(), src.dep.ptr<float>()[idx], u, v};
     Vector8d J;
     if (m.disparity_input) {
       // P = Gamma_l^-1 (x, y, d) and the Jacobian in disparity space (thesis 3.7, 3.36).
@@ -423,7 +408,6 @@ struct TrackerAccess {
       pd.P =
           Eigen::Vector3d((u - cam.cx()) / cam.fx() * pd.z, (v - cam.cy()) / cam.fy() * pd.z, pd.z);
     }
-    if (m.depth_time_shift) shift_point_depth(m, o, src, pd);
     if (!m.disparity_input) {
       J = photometric_jacobian(pd.P, gx_data[idx], gy_data[idx], cam.fx(), cam.fy(), img_data[idx]);
     }
@@ -433,42 +417,16 @@ struct TrackerAccess {
     L.z[k] = static_cast<float>(pd.P.z());
     L.intensity[k] = img_data[idx];
     for (std::size_t c = 0; c < 8; ++c) L.jac[c][k] = static_cast<float>(J(static_cast<long>(c)));
-    if (o.use_depth_residual || o.geometric_fallback) add_normal(m, o, src, pd, k, L);
+    if (o.use_depth_residual || o.geometric_fallback) add_normal(o, src, pd, k, L);
     m.depth_scratch.push_back(static_cast<float>(pd.z));
   }
 
-  // Depth taken at another time: read it where the pixel's ray was then (the rotation's
-  // infinite homography), and move that point to the image's time.
-  static void shift_point_depth(const DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                                const PointSource& src, PointDepth& pd) {
-    const PinholeCamera& cam = src.cam;
-    const Eigen::Vector3d ray =
-        m.T_rgb_depth.so3().inverse() *
-        Eigen::Vector3d((pd.ud - cam.cx()) / cam.fx(), (pd.vd - cam.cy()) / cam.fy(), 1.0);
-    if (!(ray.z() > 1e-6)) return;
-    const auto uu = static_cast<int>(std::lround(cam.fx() * ray.x() / ray.z() + cam.cx()));
-    const auto vv = static_cast<int>(std::lround(cam.fy() * ray.y() / ray.z() + cam.cy()));
-    if (uu < 0 || vv < 0 || uu >= src.img.cols || vv >= src.img.rows) return;
-    const double zd = src.dep.at<float>(vv, uu);
-    if (!(zd >= o.min_depth_m && zd <= o.max_depth_m)) return;
-    pd.ud = uu;
-    pd.vd = vv;
-    pd.z = zd;
-    pd.P = m.T_rgb_depth * Eigen::Vector3d((pd.ud - cam.cx()) / cam.fx() * pd.z,
-                                           (pd.vd - cam.cy()) / cam.fy() * pd.z, pd.z);
-    pd.shifted = true;
-  }
-
   // The point's surface normal, where the depth around it gives a reliable one.
-  static void add_normal(const DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                         const PointSource& src, const PointDepth& pd, std::size_t k,
-                         ReferenceLevel& L) {
+  static void add_normal(const DirectTrackerOptions& o, const PointSource& src,
+                         const PointDepth& pd, std::size_t k, ReferenceLevel& L) {
     Eigen::Vector3d normal;
-    const Eigen::Vector3d P_depth = pd.shifted ? m.T_rgb_depth.inverse() * pd.P : pd.P;
-    if ((!m.depth_time_shift || pd.shifted) &&
-        normal_at(src.dep, src.cam, pd.ud, pd.vd,
-                  static_cast<float>(o.depth_residual_max_relative_spread), P_depth, normal)) {
-      if (pd.shifted) normal = m.T_rgb_depth.so3() * normal;
+    if (normal_at(src.dep, src.cam, pd.u, pd.v,
+                  static_cast<float>(o.depth_residual_max_relative_spread), pd.P, normal)) {
       L.nx[k] = static_cast<float>(normal.x());
       L.ny[k] = static_cast<float>(normal.y());
       L.nz[k] = static_cast<float>(normal.z());
@@ -618,7 +576,6 @@ class LevelTerms {
         std::max(o.min_depth_sigma_m, o.depth_noise_per_m * L.median_depth * L.median_depth);
     return std::optional<PointToPlaneTerm>(std::in_place, L, m.depth_pyramid.level(level),
                                            static_cast<float>(o.depth_residual_max_relative_spread),
-                                           m.depth_time_shift ? &m.T_rgb_depth : nullptr,
                                            m.geometric_buffers, static_cast<float>(o.tukey_c),
                                            ScaleRule{6, floor, 0.0, 5e-5});
   }
@@ -736,13 +693,8 @@ struct AlignRunner {
     TrackerAccess::build_reference(m, levels, cams);
     m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
-    // The sampled depth map is now the previous frame's, whose time offset is not kept (as in
-    // the retry): none applied.
-    const bool shift = m.depth_time_shift;
-    m.depth_time_shift = false;
     // align() maps reference (current frame) points into the frame it samples (the previous).
     const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
-    m.depth_time_shift = shift;
     m.swap_current_and_previous();
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = keyframe_rectified;
@@ -844,7 +796,7 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
   if (bad.empty()) bad = check_frame(frame, camera_);
   if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
   prepare_frame(m, frame, options_);
-  TrackResult result = track_prepared(frame.t_ns, frame.depth_t_ns);
+  TrackResult result = track_prepared(frame.t_ns);
   m.depth_raw.release();  // the caller's buffer: not held past the call
   return result;
 }
@@ -855,7 +807,7 @@ TrackResult DirectTracker::track(const DisparityFrame& frame) {
   if (bad.empty()) bad = check_frame(frame, camera_);
   if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
   prepare_frame(m, frame, options_);
-  return track_prepared(frame.t_ns, 0);
+  return track_prepared(frame.t_ns);
 }
 
 namespace {
@@ -865,12 +817,10 @@ namespace {
 // they leave it; a failure restarts from the frame itself.
 class TrackingStep {
  public:
-  TrackingStep(DirectTracker::Impl& m, const DirectTrackerOptions& o, TimeNs t_ns,
-               TimeNs depth_t_ns)
-      : m_(m), o_(o), t_ns_(t_ns), depth_t_ns_(depth_t_ns) {}
+  TrackingStep(DirectTracker::Impl& m, const DirectTrackerOptions& o, TimeNs t_ns)
+      : m_(m), o_(o), t_ns_(t_ns) {}
 
   TrackResult run() {
-    set_depth_time_shift(m_.has_prev && m_.has_velocity, m_.velocity, m_.dt_prev);
     if (!m_.has_ref || !m_.has_prev) return start_sequence();
     const SE3 T_world_pred = predict();
     const SE3 T_ref_guess = m_.T_world_ref.inverse() * T_world_pred;
@@ -894,17 +844,6 @@ class TrackingStep {
   }
 
  private:
-  // The depth map's time offset, moved by the motion per frame `velocity` over `frame_dt`.
-  void set_depth_time_shift(bool known, const SE3& velocity, TimeNs frame_dt) {
-    const TimeNs offset = depth_t_ns_ != 0 ? depth_t_ns_ - t_ns_ : 0;
-    m_.depth_time_shift = o_.compensate_depth_time_offset && known && frame_dt > 0 && offset != 0 &&
-                          std::llabs(offset) < 100'000'000LL;
-    m_.T_rgb_depth =
-        m_.depth_time_shift
-            ? SE3::exp(static_cast<double>(offset) / static_cast<double>(frame_dt) * velocity.log())
-            : SE3();
-  }
-
   void build_reference() { TrackerAccess::build_reference(m_, o_, m_.level_cameras); }
 
   // The first frame (or the first after a reset) defines the world and is the keyframe.
@@ -971,7 +910,6 @@ class TrackingStep {
     m_.velocity = m_.T_world_prev.inverse() * result.T_world_cam;
     m_.has_velocity = true;
     if (!switch_kf) return;
-    set_depth_time_shift(true, m_.velocity, dt_);  // with this frame's estimated motion
     if (rs_restart) {
       m_.rectify_rolling_shutter(m_.velocity.so3().log() / ns_to_s(dt_), o_);
       m_.rs_frame_rectified = true;
@@ -1020,14 +958,13 @@ class TrackingStep {
   DirectTracker::Impl& m_;
   const DirectTrackerOptions& o_;
   const TimeNs t_ns_;
-  const TimeNs depth_t_ns_;
   TimeNs dt_ = 0;
 };
 
 }  // namespace
 
-TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
-  return TrackingStep(*impl_, options_, t_ns, depth_t_ns).run();
+TrackResult DirectTracker::track_prepared(TimeNs t_ns) {
+  return TrackingStep(*impl_, options_, t_ns).run();
 }
 
 template <typename Frame>

@@ -27,9 +27,6 @@ struct RgbdFrame {
   TimeNs t_ns = 0;
   cv::Mat image;    ///< CV_8UC3 BGR, CV_8UC1 gray, or CV_32FC1 intensity in [0, 1]
   cv::Mat depth_m;  ///< CV_32FC1 metres; 0, NaN, inf or negative = no depth
-  /// Time of the depth map when the sensor does not take it with the image (TUM fr1/fr2:
-  /// associated within 20 ms); 0 = simultaneous. See compensate_depth_time_offset.
-  TimeNs depth_t_ns = 0;
 };
 
 /// One rectified stereo frame in disparity space (thesis 2.4): the LEFT view and its disparity.
@@ -117,7 +114,7 @@ class DirectTracker {
   /// Disparity input (thesis 2.4, 3.10): frames are rectified views of `rig` with disparity maps;
   /// the reference points and Jacobians are built in disparity space (disparity_space.hpp) with
   /// the baseline scaled per pyramid level. Throws InputError for an invalid rig or options that
-  /// need depth maps (use_depth_residual, compensate_depth_time_offset).
+  /// need depth maps (use_depth_residual).
   explicit DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options = {});
   ~DirectTracker();
   DirectTracker(const DirectTracker&) = delete;
@@ -147,7 +144,7 @@ class DirectTracker {
   struct Impl;  // buffers and state, opaque (direct_tracker.cpp)
 
  private:
-  TrackResult track_prepared(TimeNs t_ns, TimeNs depth_t_ns);
+  TrackResult track_prepared(TimeNs t_ns);
   // align_pair for either input kind (defined and instantiated in direct_tracker.cpp).
   template <typename Frame>
   TrackResult align_frames(const Frame& reference, const Frame& current,

@@ -53,12 +53,6 @@ struct DirectTrackerOptions {
   /// than this fraction of its depth (no interpolation across occlusion boundaries).
   double depth_residual_max_relative_spread = 0.05;
 
-  /// Unsynchronised RGB-D (Kinect v1: depth and colour up to ~15 ms apart): move the depth
-  /// maps to the colour image's time with the constant-velocity motion, so that the 3D points
-  /// and the geometric residual describe the scene as the image saw it.
-  /// Off by default: on fr1/rpy it made the rotation worse (docs/odometry.md, "Figures").
-  bool compensate_depth_time_offset = false;
-
   // --- rolling shutter (Ringaby & Forssen, IJCV 2012; Kerl et al., ICCV 2015) ---
   /// Readout time of a rolling-shutter colour camera (first to last row, s); 0 = global
   /// shutter. Each frame is rectified to its middle row's time (image/rolling_shutter.hpp)
@@ -161,7 +155,6 @@ struct DirectTrackerOptions {
     v("min_depth_sigma_m", min_depth_sigma_m);
     v("depth_noise_per_m", depth_noise_per_m);
     v("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
-    v("compensate_depth_time_offset", compensate_depth_time_offset);
     v("rolling_shutter_readout_s", rolling_shutter_readout_s);
     v("update_norm_tolerance", update_norm_tolerance);
     v("update_change_tolerance", update_change_tolerance);
