@@ -81,7 +81,7 @@ void BM_UndistortDepth(benchmark::State& s) {
 }
 BENCHMARK(BM_UndistortDepth);
 
-// Rolling shutter (rolling_shutter_readout_s): the maps for one rotation rate (undistortion
+// Rolling shutter (RollingShutter::readout_s): the maps for one rotation rate (undistortion
 // folded in), and the remaps that replace the two above.
 void BM_RollingShutterMaps(benchmark::State& s) {
   image::RollingShutterRectifier r(fr1(), 0.02);

@@ -114,7 +114,7 @@ struct DirectTracker::Impl {
   TimeNs t_prev = 0;
   TimeNs dt_prev = 0;
 
-  // Rolling shutter (options.rolling_shutter_readout_s > 0; it undistorts as well): the current
+  // Rolling shutter (RollingShutter::readout_s > 0; it undistorts as well): the current
   // frame's raw depth, the caller's map itself (not a copy; held only during track(): its raw
   // intensity is intensity_raw), and whether the current, previous and reference frames were
   // rectified with a known rotation rate (a frame before any motion estimate is not).
@@ -122,10 +122,11 @@ struct DirectTracker::Impl {
   cv::Mat depth_raw;
   bool rs_frame_rectified = false, rs_ref_rectified = false;
 
-  Impl(const PinholeCamera& cam, const DirectTrackerOptions& o) : undistorter(cam) {
+  Impl(const PinholeCamera& cam, const DirectTrackerOptions& o, const RollingShutter& shutter)
+      : undistorter(cam) {
     // The rectifier resamples as the finest level is sampled (rolling_shutter.hpp).
-    if (o.rolling_shutter_readout_s > 0.0) {
-      rolling_shutter.emplace(cam, o.rolling_shutter_readout_s, level_sampling(o, true));
+    if (shutter.readout_s > 0.0) {
+      rolling_shutter.emplace(cam, shutter.readout_s, level_sampling(o, true));
     }
   }
 
@@ -161,10 +162,15 @@ struct DirectTracker::Impl {
   }
 };
 
-DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options)
+DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options,
+                             const RollingShutter& shutter)
     : camera_(camera.without_distortion()), options_(options) {
   options_.validate();
-  impl_ = std::make_unique<Impl>(camera, options_);
+  if (!(shutter.readout_s >= 0.0 && shutter.readout_s <= 1.0)) {
+    throw InputError("rolling-shutter readout " + std::to_string(shutter.readout_s) +
+                     " s: must be in [0, 1] s (0: global shutter)");
+  }
+  impl_ = std::make_unique<Impl>(camera, options_, shutter);
   double s = 1.0;
   for (int l = 0; l < options_.pyramid_levels; ++l, s *= 0.5) {
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
@@ -186,13 +192,8 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
         "tracker option use_depth_residual: needs depth maps; not available with "
         "disparity input (stereo)");
   }
-  if (options_.rolling_shutter_readout_s > 0.0) {
-    throw InputError(
-        "tracker option rolling_shutter_readout_s: RGB-D input only (the stereo "
-        "path rectifies global-shutter views)");
-  }
   camera_ = rig.left();
-  impl_ = std::make_unique<Impl>(camera_, options_);
+  impl_ = std::make_unique<Impl>(camera_, options_, RollingShutter{});
   impl_->disparity_input = true;
   impl_->rig = rig;
   impl_->disparity_levels.resize(static_cast<std::size_t>(options_.pyramid_levels));

@@ -34,11 +34,6 @@ void DirectTrackerOptions::validate() const {
   finite_pos("max_depth_m", max_depth_m);
   if (max_depth_m <= min_depth_m) fail("max_depth_m", "must exceed min_depth_m");
   if (!(min_gradient >= 0.0)) fail("min_gradient", "must be >= 0");
-  if (!(rolling_shutter_readout_s >= 0.0) || !std::isfinite(rolling_shutter_readout_s) ||
-      rolling_shutter_readout_s > 1.0) {
-    fail("rolling_shutter_readout_s", "must be in [0, 1] s");
-  }
-
   if (max_points_per_level < 0) fail("max_points_per_level", "must be >= 0 (0: no limit)");
   finite_pos("tukey_c", tukey_c);
   if (!(sigma_freeze_change >= 0.0)) fail("sigma_freeze_change", "must be >= 0");

@@ -38,6 +38,16 @@ struct DisparityFrame {
   cv::Mat disparity_px;
 };
 
+/// How the colour camera reads out its rows: a fact of the sensor that comes with the camera
+/// description (io::CameraFile::rolling_shutter_readout_s), not a tuning option. Rolling-shutter
+/// compensation after Ringaby & Forssen (IJCV 2012) and Kerl et al. (ICCV 2015).
+struct RollingShutter {
+  /// Time from the first row to the last (s); 0 = global shutter. With a readout each frame is
+  /// rectified to its middle row's time (image/rolling_shutter.hpp) with the rotation rate of
+  /// the constant-velocity prior, depth map alike, resampled with the finest level's kernel.
+  double readout_s = 0.0;
+};
+
 enum class TrackFailure : std::uint8_t {
   kNone = 0,
   kInvalidInput,     ///< wrong size or type, empty image
@@ -109,12 +119,14 @@ struct ReferenceLevel {
 class DirectTracker {
  public:
   /// `camera` is the model of the input images: with distortion, frames are undistorted
-  /// before tracking. Throws InputError for invalid options.
-  explicit DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options = {});
+  /// before tracking; `shutter` how its rows are read out. Throws InputError for invalid
+  /// options or readout.
+  explicit DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options = {},
+                         const RollingShutter& shutter = {});
   /// Disparity input (thesis 2.4, 3.10): frames are rectified views of `rig` with disparity maps;
   /// the reference points and Jacobians are built in disparity space (disparity_space.hpp) with
-  /// the baseline scaled per pyramid level. Throws InputError for an invalid rig or options that
-  /// need depth maps (use_depth_residual).
+  /// the baseline scaled per pyramid level (rectified global-shutter views). Throws InputError
+  /// for an invalid rig or options that need depth maps (use_depth_residual).
   explicit DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options = {});
   ~DirectTracker();
   DirectTracker(const DirectTracker&) = delete;

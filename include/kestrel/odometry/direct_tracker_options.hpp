@@ -53,14 +53,6 @@ struct DirectTrackerOptions {
   /// than this fraction of its depth (no interpolation across occlusion boundaries).
   double depth_residual_max_relative_spread = 0.05;
 
-  // --- rolling shutter (Ringaby & Forssen, IJCV 2012; Kerl et al., ICCV 2015) ---
-  /// Readout time of a rolling-shutter colour camera (first to last row, s); 0 = global
-  /// shutter. Each frame is rectified to its middle row's time (image/rolling_shutter.hpp)
-  /// with the rotation rate of the constant-velocity prior, depth map alike. RGB-D input only.
-  /// Off by default: on fr1/rpy the gain depends on the value, which we could not measure for
-  /// that Kinect (docs/odometry.md, "Rolling shutter").
-  double rolling_shutter_readout_s = 0.0;
-
   // --- convergence (thesis 3.10) ---
   double update_norm_tolerance = 1e-6;    ///< stop a level when |delta theta| falls below
   double update_change_tolerance = 1e-8;  ///< ... or when it changes by less than this
@@ -155,7 +147,6 @@ struct DirectTrackerOptions {
     v("min_depth_sigma_m", min_depth_sigma_m);
     v("depth_noise_per_m", depth_noise_per_m);
     v("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
-    v("rolling_shutter_readout_s", rolling_shutter_readout_s);
     v("update_norm_tolerance", update_norm_tolerance);
     v("update_change_tolerance", update_change_tolerance);
     v("max_iterations_finest", max_iterations_finest);
