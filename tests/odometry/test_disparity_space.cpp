@@ -268,12 +268,12 @@ TEST(DisparityTracker, BadRigAndOptionsAreClearErrors) {
   EXPECT_NE(input_error_of([&] { DirectTracker t(rig); }).find("baseline"), std::string::npos);
   rig = test_rig();
   DirectTrackerOptions o;
-  o.use_depth_residual = true;
-  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("use_depth_residual"),
+  o.terms.geometric = GeometricTerm::kAlways;
+  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("terms.geometric"),
             std::string::npos);
   o = {};
-  o.pyramid_levels = 0;
-  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("pyramid_levels"),
+  o.pyramid.levels = 0;
+  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("pyramid.levels"),
             std::string::npos);
 }
 

@@ -39,7 +39,7 @@ RunErrors track(double render_readout_s, double model_readout_s, bool bicubic = 
   const PinholeCamera cam = test::test_camera();
   const auto room = test::make_room();
   DirectTrackerOptions o;
-  o.bicubic_finest_level = bicubic;
+  o.solver.bicubic_finest_level = bicubic;
   DirectTracker tracker(cam, o, RollingShutter{model_readout_s});
   RunErrors e;
   const SE3 T_world_first = pose_at(0.0);

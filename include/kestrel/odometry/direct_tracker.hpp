@@ -92,10 +92,10 @@ struct TrackResult {
   bool new_keyframe = false;  ///< this frame became the reference for the next ones
   /// The photometric alignment failed (blur) or a finer level jumped away from the coarser
   /// one's estimate, and the geometric fallback was accepted by its own health checks
-  /// (DirectTrackerOptions::geometric_fallback).
+  /// (TermsOptions::geometric = fallback, FallbackOptions).
   bool geometric_fallback = false;
   /// The fallback's rotation came from the previous frame
-  /// (DirectTrackerOptions::fallback_rotation_from_previous_frame).
+  /// (FallbackOptions::rotation_from_previous_frame).
   bool fallback_rotation_from_previous = false;
   std::string failure_detail;  ///< human-readable, empty when ok
 };
@@ -126,7 +126,8 @@ class DirectTracker {
   /// Disparity input (thesis 2.4, 3.10): frames are rectified views of `rig` with disparity maps;
   /// the reference points and Jacobians are built in disparity space (disparity_space.hpp) with
   /// the baseline scaled per pyramid level (rectified global-shutter views). Throws InputError
-  /// for an invalid rig or options that need depth maps (use_depth_residual).
+  /// for an invalid rig or options that need depth maps
+  /// (terms.geometric: always).
   explicit DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options = {});
   ~DirectTracker();
   DirectTracker(const DirectTracker&) = delete;
