@@ -81,7 +81,7 @@ void BM_UndistortDepth(benchmark::State& s) {
 }
 BENCHMARK(BM_UndistortDepth);
 
-// Rolling shutter (rolling_shutter_readout_s): the maps for one rotation rate (undistortion
+// Rolling shutter (RollingShutter::readout_s): the maps for one rotation rate (undistortion
 // folded in), and the remaps that replace the two above.
 void BM_RollingShutterMaps(benchmark::State& s) {
   image::RollingShutterRectifier r(fr1(), 0.02);
@@ -126,7 +126,7 @@ void BM_Gradients(benchmark::State& s) {
 }
 BENCHMARK(BM_Gradients);
 
-// ---- The per-iteration alignment kernels on 6000 points (the default max_points_per_level) of
+// ---- The per-iteration alignment kernels on 6000 points (the default selection.max_points) of
 // a 640x480 level: what one Gauss-Newton iteration of DirectTracker runs.
 struct KernelData {
   static constexpr int kPoints = 6000;
@@ -336,7 +336,7 @@ const Pair& rendered_pair() {
 void BM_AlignPair(benchmark::State& s) {
   const Pair& p = rendered_pair();
   odometry::DirectTrackerOptions o;
-  o.max_points_per_level = static_cast<int>(s.range(0));
+  o.selection.max_points = static_cast<int>(s.range(0));
   odometry::DirectTracker tracker(PinholeCamera({525.0, 525.0, 319.5, 239.5, 640, 480}), o);
   int iterations = 0;
   for (auto _ : s) iterations = tracker.align_pair(p.ref, p.cur).iterations;
@@ -348,11 +348,11 @@ BENCHMARK(BM_AlignPair)->Arg(2000)->Arg(6000)->Arg(20000)->Unit(benchmark::kMill
 void BM_TrackAgainstKeyframe(benchmark::State& s) {
   const Pair& p = rendered_pair();
   odometry::DirectTrackerOptions o;
-  o.max_points_per_level = static_cast<int>(s.range(0));
-  o.keyframe_min_overlap = 0.0;
-  o.keyframe_max_rotation_deg = 180.0;
-  o.keyframe_max_translation_rel = 100.0;
-  o.constant_velocity_prior = false;
+  o.selection.max_points = static_cast<int>(s.range(0));
+  o.keyframes.min_overlap = 0.0;
+  o.keyframes.max_rotation_deg = 180.0;
+  o.keyframes.max_translation_rel = 100.0;
+  o.keyframes.constant_velocity_prior = false;
   odometry::DirectTracker tracker(PinholeCamera({525.0, 525.0, 319.5, 239.5, 640, 480}), o);
   tracker.track(p.ref);
   odometry::RgbdFrame cur = p.cur;
@@ -368,12 +368,12 @@ BENCHMARK(BM_TrackAgainstKeyframe)->Arg(2000)->Arg(6000)->Arg(20000)->Unit(bench
 void BM_TrackAgainstKeyframeWithDepthResidual(benchmark::State& s) {
   const Pair& p = rendered_pair();
   odometry::DirectTrackerOptions o;
-  o.max_points_per_level = static_cast<int>(s.range(0));
-  o.use_depth_residual = true;
-  o.keyframe_min_overlap = 0.0;
-  o.keyframe_max_rotation_deg = 180.0;
-  o.keyframe_max_translation_rel = 100.0;
-  o.constant_velocity_prior = false;
+  o.selection.max_points = static_cast<int>(s.range(0));
+  o.terms.geometric = odometry::GeometricTerm::kAlways;
+  o.keyframes.min_overlap = 0.0;
+  o.keyframes.max_rotation_deg = 180.0;
+  o.keyframes.max_translation_rel = 100.0;
+  o.keyframes.constant_velocity_prior = false;
   odometry::DirectTracker tracker(PinholeCamera({525.0, 525.0, 319.5, 239.5, 640, 480}), o);
   tracker.track(p.ref);
   odometry::RgbdFrame cur = p.cur;
@@ -408,7 +408,7 @@ const RealSequence& fr1_rpy() {
     const io::TumRgbdSequence tum(folder);
     for (std::size_t i = 0; i < tum.size(); ++i) {
       const io::RgbdImages im = tum.load(i);
-      out.frames.push_back({im.t_ns, im.bgr, im.depth_m, im.depth_t_ns});
+      out.frames.push_back({im.t_ns, im.bgr, im.depth_m});
     }
     return out;
   }();
@@ -422,9 +422,9 @@ void BM_TrackRealSequence(benchmark::State& s) {
     return;
   }
   odometry::DirectTrackerOptions o;
-  if (s.range(0) == 1) o.geometric_fallback = false;
-  if (s.range(0) == 2) o.bicubic_finest_level = false;  // bilinear everywhere, for comparison
-  if (s.range(0) == 3) o.fallback_rotation_from_previous_frame = false;  // the keyframe's rotation
+  if (s.range(0) == 1) o.terms.geometric = odometry::GeometricTerm::kOff;
+  if (s.range(0) == 2) o.solver.bicubic_finest_level = false;            // bilinear everywhere
+  if (s.range(0) == 3) o.fallback.rotation_from_previous_frame = false;  // the keyframe's rotation
   const PinholeCamera cam = *io::camera_preset("fr1");
   int failures = 0, fallbacks = 0, keyframes = 0;
   long iterations = 0;

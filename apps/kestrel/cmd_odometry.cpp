@@ -76,7 +76,7 @@ class FrameLog {
     std::vector<std::string> columns{
         "frame", "t_ns", "ref_t_ns", "ok", "failure", "converged", "iterations", "sigma",
         "photometric_level", "inlier_ratio", "overlap", "points", "gain", "bias", "new_keyframe",
-        "geometric_fallback", "retried_previous", "fallback_rotation_from_previous", "track_ms",
+        "geometric_fallback", "fallback_rotation_from_previous", "track_ms",
         "sd_tx_m", "sd_ty_m", "sd_tz_m", "sd_rx_deg", "sd_ry_deg", "sd_rz_deg"};
     // clang-format on
     // The full covariance, for `kestrel fuse --vo-frames` (io/odometry_frame_log.hpp).
@@ -95,7 +95,7 @@ class FrameLog {
     c.add(flag(r.converged)).add(std::int64_t{r.iterations}).add(r.sigma);
     c.add(std::int64_t{r.photometric_level}).add(r.inlier_ratio).add(r.overlap);
     c.add(std::int64_t{r.points}).add(r.gain).add(r.bias);
-    c.add(flag(r.new_keyframe)).add(flag(r.geometric_fallback)).add(flag(r.retried_previous));
+    c.add(flag(r.new_keyframe)).add(flag(r.geometric_fallback));
     c.add(flag(r.fallback_rotation_from_previous)).add(track_ms);
     const Eigen::Matrix<double, 6, 1> sd = r.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
     for (int k = 0; k < 3; ++k) c.add(sd(k));
@@ -443,7 +443,9 @@ void run_odometry(const OdometryArgs& args) {
                      ": the folder name does not say which camera (freiburg1/2/3): give "
                      "--camera fr1|fr2|fr3|ros|FILE.yaml");
   }
-  const PinholeCamera camera = io::load_camera(camera_name);
+  // The camera description: the pinhole model, the depth scale and the rolling-shutter readout.
+  const io::CameraFile described = io::load_camera_description(camera_name);
+  const PinholeCamera& camera = described.camera;
   const odometry::DirectTrackerOptions options =
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
@@ -465,21 +467,26 @@ void run_odometry(const OdometryArgs& args) {
   }
   outputs.text_file("--out", args.out).text_file("--frames", args.frames);
   io::TumRgbdOptions sequence_options;
-  sequence_options.depth_scale = args.depth_scale.value_or(sequence_options.depth_scale);
+  sequence_options.depth_scale =
+      args.depth_scale.value_or(described.depth_scale.value_or(sequence_options.depth_scale));
   const io::TumRgbdSequence sequence(args.dataset, sequence_options);
 
   std::cerr << "kestrel odometry: dataset=" << args.dataset.string()
             << " frames=" << sequence.size() << " (unmatched rgb: " << sequence.unmatched_rgb()
             << ")\n"
             << "camera " << camera_name << ": " << camera.describe() << "\n"
-            << "depth: " << sequence_options.depth_scale << " PNG units per metre\n";
+            << "depth: " << sequence_options.depth_scale << " PNG units per metre"
+            << (args.depth_scale ? " (--depth-scale)" : "") << "\n"
+            << "rolling-shutter readout: " << described.rolling_shutter_readout_s
+            << " s (0: global shutter)\n";
   print_options(options, args);
   if (sequence.size() == 0)
     throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
   const auto gt = sequence.groundtruth();
   check_plot_dir(args, gt.has_value(), outputs);
 
-  odometry::DirectTracker tracker(camera, options);
+  odometry::DirectTracker tracker(camera, options,
+                                  odometry::RollingShutter{described.rolling_shutter_readout_s});
   Trajectory trajectory;
   trajectory.reserve(sequence.size());
   RunTally tally;
@@ -491,7 +498,7 @@ void run_odometry(const OdometryArgs& args) {
       sequence.size(), "odometry", args, interrupt, tally, frame_log, trajectory,
       [&](std::size_t i) { return sequence.load(i); },
       [&](const io::RgbdImages& images, std::size_t) -> std::optional<TrackedFrame> {
-        const odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns};
+        const odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m};
         const auto t0 = std::chrono::steady_clock::now();
         odometry::TrackResult r = tracker.track(frame);
         const double track_ms = ms_since(t0);
@@ -531,9 +538,11 @@ void add_odometry_command(CLI::App& app) {
                   "folder for the evaluation's per-axis and RPE CSVs, the aligned estimate and PNG "
                   "figures, as `kestrel evaluate --plot` (needs the folder's ground truth)");
   cmd->add_option("--camera", args->camera,
-                  "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN)");
+                  "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN); a "
+                  "Kestrel camera file may give depth_scale and rolling_shutter_readout_s");
   cmd->add_option("--depth-scale", args->depth_scale,
-                  "depth PNG units per metre (TUM RGB-D: 5000; many other RGB-D recordings: 1000)")
+                  "depth PNG units per metre, overriding the camera's (TUM RGB-D: 5000; many "
+                  "other RGB-D recordings: 1000)")
       ->check(number_in(0.0, 1e6, "depth units per metre in (0, 1000000]", true));
   cmd->add_flag("--stereo", args->stereo,
                 "EuRoC stereo input: rectify, block-match, track the left view in disparity space");

@@ -222,7 +222,7 @@ void add_stereo_experiment_command(CLI::App& lab) {
   cmd->add_option("--focal", q.f_px, "--odometry: focal length [px]")
       ->capture_default_str()
       ->check(number_in(1.0, 100000.0, "a focal length in [1, 100000] px"));
-  cmd->add_option("--pyramid-levels", q.tracker.pyramid_levels,
+  cmd->add_option("--pyramid-levels", q.tracker.pyramid.levels,
                   "--odometry: tracker pyramid levels")
       ->capture_default_str()
       ->check(whole_in(1, 8, "a whole number of levels from 1 to 8"));

@@ -89,10 +89,9 @@ CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
         as_numbers(root["distortion_coefficients"], path, "distortion_coefficients", 4, 5);
     d = {c[0], c[1], c[2], c[3], c.size() == 5 ? c[4] : 0.0};
   }
-  CameraFile out{
-      make_camera({k[0], k[1], k[2], k[3], static_cast<int>(res[0]), static_cast<int>(res[1])}, d,
-                  path, "intrinsics"),
-      std::nullopt};
+  CameraFile out{.camera = make_camera(
+                     {k[0], k[1], k[2], k[3], static_cast<int>(res[0]), static_cast<int>(res[1])},
+                     d, path, "intrinsics")};
   if (root["T_BS"]) {
     const auto m =
         as_numbers(yaml_require(root["T_BS"], "data", path, "T_BS."), path, "T_BS.data", 16, 16);
@@ -108,8 +107,31 @@ CameraFile load_euroc(const YAML::Node& root, const fs::path& path) {
   return out;
 }
 
+// The optional sensor facts of Kestrel's `camera:` map (CameraFile).
+void read_sensor_facts(const YAML::Node& map, const fs::path& path, CameraFile& out) {
+  if (const YAML::Node n = map["depth_scale"]) {
+    const auto scale = yaml_as<double>(n, path, "camera.depth_scale");
+    if (!(std::isfinite(scale) && scale > 0.0)) {
+      throw InputError(path, "camera.depth_scale",
+                       "must be positive and finite (depth image units per metre)");
+    }
+    out.depth_scale = scale;
+  }
+  if (const YAML::Node n = map["rolling_shutter_readout_s"]) {
+    const auto readout = yaml_as<double>(n, path, "camera.rolling_shutter_readout_s");
+    if (!(readout >= 0.0 && readout <= 1.0)) {
+      throw InputError(path, "camera.rolling_shutter_readout_s",
+                       "must be in [0, 1] s (0: global shutter)");
+    }
+    out.rolling_shutter_readout_s = readout;
+  }
+}
+
 CameraFile load_kestrel(const YAML::Node& root, const fs::path& path) {
-  return {camera_from_yaml(yaml_require(root, "camera", path, ""), path, "camera"), std::nullopt};
+  const YAML::Node map = yaml_require(root, "camera", path, "");
+  CameraFile out{.camera = camera_from_yaml(map, path, "camera")};
+  read_sensor_facts(map, path, out);
+  return out;
 }
 
 void write_text(const fs::path& path, const std::string& text, std::string_view command,
@@ -155,13 +177,20 @@ CameraFile load_camera_file(const fs::path& path) {
                    "(EuRoC sensor.yaml)");
 }
 
-PinholeCamera load_camera(const std::string& preset_or_path) {
-  if (auto preset = camera_preset(preset_or_path)) return *preset;
+CameraFile load_camera_description(const std::string& preset_or_path) {
+  if (auto preset = camera_preset(preset_or_path)) {
+    // TUM RGB-D depth PNGs; readout 0 (not measured for those Kinects).
+    return CameraFile{.camera = *preset, .depth_scale = 5000.0};
+  }
   if (!fs::exists(preset_or_path)) {
     throw InputError("camera '" + preset_or_path +
                      "': neither a preset (fr1, fr2, fr3, ros) nor an existing file");
   }
-  return load_camera_file(preset_or_path).camera;
+  return load_camera_file(preset_or_path);
+}
+
+PinholeCamera load_camera(const std::string& preset_or_path) {
+  return load_camera_description(preset_or_path).camera;
 }
 
 RectifiedStereo load_rectified_stereo(const fs::path& path) {

@@ -46,8 +46,8 @@ std::string StereoOdometryExperimentOptions::describe() const {
      << baseline_m << " m, intensity noise sigma " << intensity_sigma << ", active mode "
      << sim::projector_mode_name(active_mode) << ", seed " << seed << "\n  " << projector.describe()
      << "\n  pattern: " << pattern.describe() << "\n  matcher: " << matcher.describe()
-     << "\n  tracker: pyramid_levels " << tracker.pyramid_levels << ", max_points_per_level "
-     << tracker.max_points_per_level << " (other tracker options at their defaults unless set)";
+     << "\n  tracker: pyramid.levels " << tracker.pyramid.levels << ", selection.max_points "
+     << tracker.selection.max_points << " (other tracker options at their defaults unless set)";
   return os.str();
 }
 

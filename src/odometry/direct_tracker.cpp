@@ -6,7 +6,6 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -55,12 +54,11 @@ using kernels::pad_to_lanes;
 
 double rotation_angle_deg(const SE3& T) { return T.so3().log().norm() * 180.0 / std::numbers::pi; }
 
-// How the current image is sampled on the finest or a coarser level (bicubic_finest_level,
-// bicubic_coarse_levels).
+// How the current image is sampled on the finest level (bicubic_finest_level); the coarser
+// levels are sampled bilinearly (docs/odometry.md, "Bicubic on the coarser levels too").
 image::Interpolation level_sampling(const DirectTrackerOptions& o, bool finest) {
-  return (finest ? o.bicubic_finest_level : o.bicubic_coarse_levels)
-             ? image::Interpolation::kBicubic
-             : image::Interpolation::kBilinear;
+  return finest && o.solver.bicubic_finest_level ? image::Interpolation::kBicubic
+                                                 : image::Interpolation::kBilinear;
 }
 
 }  // namespace
@@ -108,11 +106,6 @@ struct DirectTracker::Impl {
   TermBuffers photometric_buffers, geometric_buffers;
   std::vector<float> abs_residual;
 
-  // T_rgb_depth of the current frame: maps its depth map's points (taken at depth_t_ns) into
-  // the camera at the image's time (identity when simultaneous or without a motion estimate).
-  SE3 T_rgb_depth;
-  bool depth_time_shift = false;
-
   // Sequence state.
   bool has_prev = false;
   bool has_velocity = false;
@@ -121,18 +114,19 @@ struct DirectTracker::Impl {
   TimeNs t_prev = 0;
   TimeNs dt_prev = 0;
 
-  // Rolling shutter (options.rolling_shutter_readout_s > 0; it undistorts as well): the current
+  // Rolling shutter (RollingShutter::readout_s > 0; it undistorts as well): the current
   // frame's raw depth, the caller's map itself (not a copy; held only during track(): its raw
   // intensity is intensity_raw), and whether the current, previous and reference frames were
   // rectified with a known rotation rate (a frame before any motion estimate is not).
   std::optional<image::RollingShutterRectifier> rolling_shutter;
   cv::Mat depth_raw;
-  bool rs_frame_rectified = false, rs_prev_rectified = false, rs_ref_rectified = false;
+  bool rs_frame_rectified = false, rs_ref_rectified = false;
 
-  Impl(const PinholeCamera& cam, const DirectTrackerOptions& o) : undistorter(cam) {
+  Impl(const PinholeCamera& cam, const DirectTrackerOptions& o, const RollingShutter& shutter)
+      : undistorter(cam) {
     // The rectifier resamples as the finest level is sampled (rolling_shutter.hpp).
-    if (o.rolling_shutter_readout_s > 0.0) {
-      rolling_shutter.emplace(cam, o.rolling_shutter_readout_s, level_sampling(o, true));
+    if (shutter.readout_s > 0.0) {
+      rolling_shutter.emplace(cam, shutter.readout_s, level_sampling(o, true));
     }
   }
 
@@ -143,13 +137,13 @@ struct DirectTracker::Impl {
     rolling_shutter->rectify_intensity(intensity_raw, intensity);
     rolling_shutter->rectify_depth(depth_raw, depth);
     depth_pyramid_current = false;
-    pyramid.build(intensity, o.pyramid_levels, o.pyramid_filter);
-    if (o.use_depth_residual) ensure_depth_pyramid(o);
+    pyramid.build(intensity, o.pyramid.levels, o.pyramid.filter);
+    if (o.terms.geometric == GeometricTerm::kAlways) ensure_depth_pyramid(o);
   }
 
   // The current frame's images and depth trade places with the previous frame's (buffers
-  // swapped, no copies): the retry and the fallback's rotation use the previous frame in the
-  // other role, then swap back.
+  // swapped, no copies): the fallback's rotation uses the previous frame in the other role, then
+  // swaps back.
   void swap_current_and_previous() {
     std::swap(pyramid, prev_pyramid);
     std::swap(depth, prev_depth);
@@ -162,22 +156,27 @@ struct DirectTracker::Impl {
   // residual, a new reference, the geometric fallback).
   void ensure_depth_pyramid(const DirectTrackerOptions& o) {
     if (depth_pyramid_current) return;
-    depth_pyramid.build(depth, o.pyramid_levels,
-                        static_cast<float>(o.depth_pyramid_max_relative_spread));
+    depth_pyramid.build(depth, o.pyramid.levels,
+                        static_cast<float>(o.pyramid.depth_max_relative_spread));
     depth_pyramid_current = true;
   }
 };
 
-DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options)
+DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options,
+                             const RollingShutter& shutter)
     : camera_(camera.without_distortion()), options_(options) {
   options_.validate();
-  impl_ = std::make_unique<Impl>(camera, options_);
+  if (!(shutter.readout_s >= 0.0 && shutter.readout_s <= 1.0)) {
+    throw InputError("rolling-shutter readout " + std::to_string(shutter.readout_s) +
+                     " s: must be in [0, 1] s (0: global shutter)");
+  }
+  impl_ = std::make_unique<Impl>(camera, options_, shutter);
   double s = 1.0;
-  for (int l = 0; l < options_.pyramid_levels; ++l, s *= 0.5) {
+  for (int l = 0; l < options_.pyramid.levels; ++l, s *= 0.5) {
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
   }
-  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
-  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
+  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
+  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
 }
 
 DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options)
@@ -188,32 +187,22 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
     throw InputError(std::string("stereo rig: ") + e.what());
   }
   options_.validate();
-  if (options_.use_depth_residual) {
+  if (options_.terms.geometric == GeometricTerm::kAlways) {
     throw InputError(
-        "tracker option use_depth_residual: needs depth maps; not available with "
+        "tracker option 'terms.geometric: always': needs depth maps; not available with "
         "disparity input (stereo)");
   }
-  if (options_.compensate_depth_time_offset) {
-    throw InputError(
-        "tracker option compensate_depth_time_offset: needs depth maps; not "
-        "available with disparity input (stereo)");
-  }
-  if (options_.rolling_shutter_readout_s > 0.0) {
-    throw InputError(
-        "tracker option rolling_shutter_readout_s: RGB-D input only (the stereo "
-        "path rectifies global-shutter views)");
-  }
   camera_ = rig.left();
-  impl_ = std::make_unique<Impl>(camera_, options_);
+  impl_ = std::make_unique<Impl>(camera_, options_, RollingShutter{});
   impl_->disparity_input = true;
   impl_->rig = rig;
-  impl_->disparity_levels.resize(static_cast<std::size_t>(options_.pyramid_levels));
+  impl_->disparity_levels.resize(static_cast<std::size_t>(options_.pyramid.levels));
   double s = 1.0;
-  for (int l = 0; l < options_.pyramid_levels; ++l, s *= 0.5) {
+  for (int l = 0; l < options_.pyramid.levels; ++l, s *= 0.5) {
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
   }
-  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
-  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid_levels));
+  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
+  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
 }
 
 DirectTracker::~DirectTracker() = default;
@@ -222,8 +211,6 @@ void DirectTracker::reset() {
   impl_->has_ref = false;
   impl_->has_prev = false;
   impl_->has_velocity = false;
-  impl_->depth_time_shift = false;
-  impl_->T_rgb_depth = SE3();
   impl_->depth_raw.release();
 }
 
@@ -276,7 +263,7 @@ struct TrackerAccess {
                               const std::vector<PinholeCamera>& cams) {
     prepare_reference_maps(m, o);
     std::size_t max_count = 0;
-    for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
+    for (int l = o.pyramid.finest_level; l < o.pyramid.levels; ++l) {
       max_count =
           std::max(max_count, build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l));
     }
@@ -292,8 +279,8 @@ struct TrackerAccess {
   // full-resolution disparity (thesis 3.10).
   static void prepare_reference_maps(DirectTracker::Impl& m, const DirectTrackerOptions& o) {
     if (m.disparity_input) {
-      for (int l = o.finest_level; l < o.pyramid_levels; ++l) {
-        disparity_at_level(m.disparity, l, static_cast<float>(o.depth_pyramid_max_relative_spread),
+      for (int l = o.pyramid.finest_level; l < o.pyramid.levels; ++l) {
+        disparity_at_level(m.disparity, l, static_cast<float>(o.pyramid.depth_max_relative_spread),
                            m.disparity_levels[static_cast<std::size_t>(l)]);
       }
     } else {
@@ -337,16 +324,18 @@ struct TrackerAccess {
 
   // Score = squared gradient where the point is usable (depth in range, gradient above
   // min_gradient), 0 elsewhere and on the border; branch-free, so it vectorises. Then the
-  // strongest max_points_per_level in image order (point_selection.hpp) into m.selected.
+  // strongest selection.max_points in image order (point_selection.hpp) into m.selected.
   static void select_points(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                             const cv::Mat& img, const cv::Mat& dep) {
     // The depth range; in disparity space d in [f B / max_depth, f B / min_depth], the same
     // numbers on every level (d stays in full-resolution pixels).
     const bool disp = m.disparity_input;
     const double fb = m.rig.f * m.rig.baseline_m;
-    const auto zmin = static_cast<float>(disp ? fb / o.max_depth_m : o.min_depth_m);
-    const auto zmax = static_cast<float>(disp ? fb / o.min_depth_m : o.max_depth_m);
-    const auto g2min = static_cast<float>(o.min_gradient * o.min_gradient);
+    const auto zmin =
+        static_cast<float>(disp ? fb / o.selection.max_depth_m : o.selection.min_depth_m);
+    const auto zmax =
+        static_cast<float>(disp ? fb / o.selection.min_depth_m : o.selection.max_depth_m);
+    const auto g2min = static_cast<float>(o.selection.min_gradient * o.selection.min_gradient);
     m.scores.assign(static_cast<std::size_t>(img.rows) * static_cast<std::size_t>(img.cols), 0.0F);
     for (int y = 1; y < img.rows - 1; ++y) {
       const float* d = dep.ptr<float>(y);
@@ -360,7 +349,7 @@ struct TrackerAccess {
         sc[x] = ok ? g2 : 0.0F;
       }
     }
-    select_strongest(m.scores, static_cast<std::size_t>(std::max(0, o.max_points_per_level)),
+    select_strongest(m.scores, static_cast<std::size_t>(std::max(0, o.selection.max_points)),
                      m.selected, m.selection_scratch);
   }
 
@@ -388,13 +377,11 @@ struct TrackerAccess {
     DisparitySpaceCamera dcam;  // disparity input only
   };
 
-  // A reference point before it is stored: where its depth was read (the pixel itself, or where
-  // its ray was when a time-shifted depth map was taken) and its 3D position.
+  // A reference point before it is stored: its pixel, depth and 3D position.
   struct PointDepth {
     Eigen::Vector3d P;
     double z = 0.0;
-    int ud = 0, vd = 0;
-    bool shifted = false;
+    int u = 0, v = 0;
   };
 
   // Selected pixel `idx` as point i of level L: position, Jacobian (pose, gain, bias) and, for
@@ -408,7 +395,7 @@ struct TrackerAccess {
     const float* img_data = img.ptr<float>();
     const float* gx_data = m.gx.ptr<float>();
     const float* gy_data = m.gy.ptr<float>();
-    PointDepth pd{Eigen::Vector3d::Zero(), src.dep.ptr<float>()[idx], u, v, false};
+    PointDepth pd{Eigen::Vector3d::Zero(), src.dep.ptr<float>()[idx], u, v};
     Vector8d J;
     if (m.disparity_input) {
       // P = Gamma_l^-1 (x, y, d) and the Jacobian in disparity space (thesis 3.7, 3.36).
@@ -424,7 +411,6 @@ struct TrackerAccess {
       pd.P =
           Eigen::Vector3d((u - cam.cx()) / cam.fx() * pd.z, (v - cam.cy()) / cam.fy() * pd.z, pd.z);
     }
-    if (m.depth_time_shift) shift_point_depth(m, o, src, pd);
     if (!m.disparity_input) {
       J = photometric_jacobian(pd.P, gx_data[idx], gy_data[idx], cam.fx(), cam.fy(), img_data[idx]);
     }
@@ -434,42 +420,16 @@ struct TrackerAccess {
     L.z[k] = static_cast<float>(pd.P.z());
     L.intensity[k] = img_data[idx];
     for (std::size_t c = 0; c < 8; ++c) L.jac[c][k] = static_cast<float>(J(static_cast<long>(c)));
-    if (o.use_depth_residual || o.geometric_fallback) add_normal(m, o, src, pd, k, L);
+    if (o.terms.geometric != GeometricTerm::kOff) add_normal(o, src, pd, k, L);
     m.depth_scratch.push_back(static_cast<float>(pd.z));
   }
 
-  // Depth taken at another time: read it where the pixel's ray was then (the rotation's
-  // infinite homography), and move that point to the image's time.
-  static void shift_point_depth(const DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                                const PointSource& src, PointDepth& pd) {
-    const PinholeCamera& cam = src.cam;
-    const Eigen::Vector3d ray =
-        m.T_rgb_depth.so3().inverse() *
-        Eigen::Vector3d((pd.ud - cam.cx()) / cam.fx(), (pd.vd - cam.cy()) / cam.fy(), 1.0);
-    if (!(ray.z() > 1e-6)) return;
-    const auto uu = static_cast<int>(std::lround(cam.fx() * ray.x() / ray.z() + cam.cx()));
-    const auto vv = static_cast<int>(std::lround(cam.fy() * ray.y() / ray.z() + cam.cy()));
-    if (uu < 0 || vv < 0 || uu >= src.img.cols || vv >= src.img.rows) return;
-    const double zd = src.dep.at<float>(vv, uu);
-    if (!(zd >= o.min_depth_m && zd <= o.max_depth_m)) return;
-    pd.ud = uu;
-    pd.vd = vv;
-    pd.z = zd;
-    pd.P = m.T_rgb_depth * Eigen::Vector3d((pd.ud - cam.cx()) / cam.fx() * pd.z,
-                                           (pd.vd - cam.cy()) / cam.fy() * pd.z, pd.z);
-    pd.shifted = true;
-  }
-
   // The point's surface normal, where the depth around it gives a reliable one.
-  static void add_normal(const DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                         const PointSource& src, const PointDepth& pd, std::size_t k,
-                         ReferenceLevel& L) {
+  static void add_normal(const DirectTrackerOptions& o, const PointSource& src,
+                         const PointDepth& pd, std::size_t k, ReferenceLevel& L) {
     Eigen::Vector3d normal;
-    const Eigen::Vector3d P_depth = pd.shifted ? m.T_rgb_depth.inverse() * pd.P : pd.P;
-    if ((!m.depth_time_shift || pd.shifted) &&
-        normal_at(src.dep, src.cam, pd.ud, pd.vd,
-                  static_cast<float>(o.depth_residual_max_relative_spread), P_depth, normal)) {
-      if (pd.shifted) normal = m.T_rgb_depth.so3() * normal;
+    if (normal_at(src.dep, src.cam, pd.u, pd.v,
+                  static_cast<float>(o.terms.depth_max_relative_spread), pd.P, normal)) {
       L.nx[k] = static_cast<float>(normal.x());
       L.ny[k] = static_cast<float>(normal.y());
       L.nz[k] = static_cast<float>(normal.z());
@@ -513,7 +473,7 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
   // Rectified views: no undistortion.
   image::to_intensity(f.image, m.intensity);
   f.disparity_px.copyTo(m.disparity);
-  m.pyramid.build(m.intensity, o.pyramid_levels, o.pyramid_filter);
+  m.pyramid.build(m.intensity, o.pyramid.levels, o.pyramid.filter);
 }
 
 void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o) {
@@ -537,8 +497,8 @@ void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrack
   }
   m.undistorter.undistort_intensity(m.intensity_raw, m.intensity);
   m.undistorter.undistort_depth(f.depth_m, m.depth);
-  m.pyramid.build(m.intensity, o.pyramid_levels, o.pyramid_filter);
-  if (o.use_depth_residual) m.ensure_depth_pyramid(o);
+  m.pyramid.build(m.intensity, o.pyramid.levels, o.pyramid.filter);
+  if (o.terms.geometric == GeometricTerm::kAlways) m.ensure_depth_pyramid(o);
 }
 
 }  // namespace
@@ -555,7 +515,9 @@ struct AlignTerms {
   /// scales the blur left), and the geometric residuals have health checks of their own.
   bool fallback_checks = false;
 
-  static AlignTerms from(const DirectTrackerOptions& o) { return {o.use_depth_residual, false}; }
+  static AlignTerms from(const DirectTrackerOptions& o) {
+    return {o.terms.geometric == GeometricTerm::kAlways, false};
+  }
 };
 
 struct AlignOutcome {
@@ -583,10 +545,11 @@ struct HealthLevel {
 class LevelTerms {
  public:
   LevelTerms(DirectTracker::Impl& m, const DirectTrackerOptions& o, int level, bool geometric)
-      : photometric_(m.ref[static_cast<std::size_t>(level)], m.pyramid.level(level),
-                     level_sampling(o, level == o.finest_level), m.photometric_buffers,
-                     static_cast<float>(o.tukey_c),
-                     {o.estimate_gain_bias ? 8 : 6, o.min_sigma, o.sigma_freeze_change, 0.0}),
+      : photometric_(
+            m.ref[static_cast<std::size_t>(level)], m.pyramid.level(level),
+            level_sampling(o, level == o.pyramid.finest_level), m.photometric_buffers,
+            static_cast<float>(o.robust.tukey_c),
+            {o.terms.gain_bias ? 8 : 6, o.robust.min_sigma, o.robust.sigma_freeze_change, 0.0}),
         geometric_(geometric_term(m, o, level, geometric)) {
     const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
     list_[0] = &photometric_;
@@ -609,19 +572,18 @@ class LevelTerms {
                                                         const DirectTrackerOptions& o, int level,
                                                         bool geometric) {
     const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
-    if (!geometric || L.normal_count < o.min_points) return std::nullopt;
+    if (!geometric || L.normal_count < o.health.min_points) return std::nullopt;
     // The geometric scale is not below the sensor's depth noise at the level's median depth:
     // on exact (rendered) or very clean depth the MAD of a misaligned pair counts the points
     // whose residual the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2
     // weights then outvote the photometric residuals in steps that raise the robust cost. It
     // freezes at the photometric rule's relative change (1e-6 of ~0.02 grey: 5e-5).
-    const double floor =
-        std::max(o.min_depth_sigma_m, o.depth_noise_per_m * L.median_depth * L.median_depth);
-    return std::optional<PointToPlaneTerm>(std::in_place, L, m.depth_pyramid.level(level),
-                                           static_cast<float>(o.depth_residual_max_relative_spread),
-                                           m.depth_time_shift ? &m.T_rgb_depth : nullptr,
-                                           m.geometric_buffers, static_cast<float>(o.tukey_c),
-                                           ScaleRule{6, floor, 0.0, 5e-5});
+    const double floor = std::max(o.terms.min_depth_sigma_m,
+                                  o.terms.depth_noise_per_m * L.median_depth * L.median_depth);
+    return std::optional<PointToPlaneTerm>(
+        std::in_place, L, m.depth_pyramid.level(level),
+        static_cast<float>(o.terms.depth_max_relative_spread), m.geometric_buffers,
+        static_cast<float>(o.robust.tukey_c), ScaleRule{6, floor, 0.0, 5e-5});
   }
 
   PhotometricTerm photometric_;
@@ -664,23 +626,23 @@ void check_health(const SE3& T_cur_ref, const DirectTrackerOptions& o, const Ali
   if (!res.covariance.allFinite() || !T_cur_ref.translation().allFinite()) {
     res.failure = TrackFailure::kNumerical;
     res.failure_detail = "non-finite estimate";
-  } else if (res.overlap < o.min_overlap) {
+  } else if (res.overlap < o.health.min_overlap) {
     res.failure = TrackFailure::kNoOverlap;
     res.failure_detail = "overlap " + std::to_string(res.overlap) + " < min_overlap";
-  } else if (res.sigma > o.max_sigma) {
+  } else if (res.sigma > o.health.max_sigma) {
     res.failure = TrackFailure::kHighResidual;
     res.failure_detail = "robust sigma " + std::to_string(res.sigma) + " > max_sigma";
-  } else if (res.inlier_ratio < o.min_inlier_ratio) {
+  } else if (res.inlier_ratio < o.health.min_inlier_ratio) {
     res.failure = TrackFailure::kLowInlierRatio;
     res.failure_detail = "inlier ratio " + std::to_string(res.inlier_ratio) + " < min_inlier_ratio";
-  } else if (terms.fallback_checks &&
-             (res.depth_points < o.min_points || res.depth_inlier_ratio < o.min_inlier_ratio)) {
+  } else if (terms.fallback_checks && (res.depth_points < o.health.min_points ||
+                                       res.depth_inlier_ratio < o.health.min_inlier_ratio)) {
     res.failure = TrackFailure::kLowInlierRatio;
     res.failure_detail = "geometric fallback: " + std::to_string(res.depth_points) +
                          " point-to-plane residuals, inlier ratio " +
                          std::to_string(res.depth_inlier_ratio);
-  } else if (T_ref_cur.translation().norm() > o.max_translation_m ||
-             rotation_angle_deg(T_ref_cur) > o.max_rotation_deg) {
+  } else if (T_ref_cur.translation().norm() > o.health.max_translation_m ||
+             rotation_angle_deg(T_ref_cur) > o.health.max_rotation_deg) {
     res.failure = TrackFailure::kImplausibleMotion;
     res.failure_detail = "motion to the reference beyond max_translation_m/max_rotation_deg";
   }
@@ -690,15 +652,15 @@ void check_health(const SE3& T_cur_ref, const DirectTrackerOptions& o, const Ali
 
 struct AlignRunner {
   // The photometric alignment and, where it asks for it, the geometric fallback
-  // (DirectTrackerOptions::geometric_fallback): on a high residual (blur), or when a finer level
-  // left the coarser one's estimate by more than max_level_jump_px (the photometric data are
-  // ambiguous at that scale: blur, rolling shutter, aliasing). The fallback's result replaces the
-  // photometric one only if it passes its own health checks.
+  // (TermsOptions::geometric = fallback, FallbackOptions): on a high residual (blur), or when a
+  // finer level left the coarser one's estimate by more than max_level_jump_px (the photometric
+  // data are ambiguous at that scale: blur, rolling shutter, aliasing). The fallback's result
+  // replaces the photometric one only if it passes its own health checks.
   static AlignOutcome align_with_fallback(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                                           const SE3& T_cur_ref_guess) {
     AlignOutcome a = align(m, o, T_cur_ref_guess, AlignTerms::from(o));
-    const bool jumped = a.result.ok() && a.max_level_jump_px > o.max_level_jump_px;
-    if (!o.geometric_fallback || m.disparity_input || o.use_depth_residual ||
+    const bool jumped = a.result.ok() && a.max_level_jump_px > o.fallback.max_level_jump_px;
+    if (o.terms.geometric != GeometricTerm::kFallback || m.disparity_input ||
         !(jumped || a.result.failure == TrackFailure::kHighResidual)) {
       return a;
     }
@@ -714,7 +676,7 @@ struct AlignRunner {
   }
 
   // The fallback's rotation against the previous frame
-  // (DirectTrackerOptions::fallback_rotation_from_previous_frame): the current frame is the
+  // (FallbackOptions::rotation_from_previous_frame): the current frame is the
   // reference (its own, blurred, gradients, points and normals) and the previous frame, blurred
   // alike in a fast motion, is aligned to it with the joint residual and the fallback's checks.
   // The current frame's reference data are built in a buffer of their own, swapped in and out
@@ -724,12 +686,12 @@ struct AlignRunner {
                                                       const std::vector<PinholeCamera>& cams,
                                                       const SE3& T_prev_cur_guess,
                                                       int& iterations) {
-    // Levels from fallback_rotation_coarsest_level down: the guess is the keyframe fallback's
+    // Levels from fallback.rotation_coarsest_level down: the guess is the keyframe fallback's
     // estimate, a fraction of a pixel off there. Both depth pyramids stay full height (the
     // keyframe switch and the next frame read them).
     DirectTrackerOptions levels = o;
-    levels.pyramid_levels =
-        std::clamp(o.fallback_rotation_coarsest_level + 1, o.finest_level + 1, o.pyramid_levels);
+    levels.pyramid.levels = std::clamp(o.fallback.rotation_coarsest_level + 1,
+                                       o.pyramid.finest_level + 1, o.pyramid.levels);
     const bool keyframe_rectified = m.rs_ref_rectified;
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = m.rs_frame_rectified;
@@ -737,13 +699,8 @@ struct AlignRunner {
     TrackerAccess::build_reference(m, levels, cams);
     m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
-    // The sampled depth map is now the previous frame's, whose time offset is not kept (as in
-    // the retry): none applied.
-    const bool shift = m.depth_time_shift;
-    m.depth_time_shift = false;
     // align() maps reference (current frame) points into the frame it samples (the previous).
     const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
-    m.depth_time_shift = shift;
     m.swap_current_and_previous();
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = keyframe_rectified;
@@ -760,16 +717,16 @@ struct AlignRunner {
     TrackResult& res = out.result;
     Estimate est{T_cur_ref_guess};
     HealthLevel health;
-    health.level = o.finest_level;
-    for (int l = o.pyramid_levels - 1; l >= o.finest_level; --l) {
+    health.level = o.pyramid.finest_level;
+    for (int l = o.pyramid.levels - 1; l >= o.pyramid.finest_level; --l) {
       const ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
-      const bool finest = (l == o.finest_level);
-      if (L.count < o.min_points) {
+      const bool finest = (l == o.pyramid.finest_level);
+      if (L.count < o.health.min_points) {
         if (!finest) continue;  // a coarse level without enough points is skipped
         res.failure = TrackFailure::kTooFewPoints;
         res.failure_detail = "reference has " + std::to_string(L.count) +
                              " usable points on level " + std::to_string(l) + " (min_points " +
-                             std::to_string(o.min_points) + ")";
+                             std::to_string(o.health.min_points) + ")";
         out.T_cur_ref = est.T_cur_ref;
         return out;
       }
@@ -782,7 +739,7 @@ struct AlignRunner {
         out.T_cur_ref = est.T_cur_ref;
         return out;
       }
-      if (l + 1 < o.pyramid_levels) {
+      if (l + 1 < o.pyramid.levels) {
         out.max_level_jump_px = std::max(
             out.max_level_jump_px,
             level_jump_px(m.ref[static_cast<std::size_t>(l + 1)], T_level_start, est.T_cur_ref));
@@ -791,9 +748,9 @@ struct AlignRunner {
       // the current one); else the finest level.
       const LevelStats& stats = solver.stats();
       const bool record =
-          terms.fallback_checks ? (stats.sigma <= o.max_sigma || !health.passed) : finest;
+          terms.fallback_checks ? (stats.sigma <= o.health.max_sigma || !health.passed) : finest;
       if (record) {
-        health.passed = health.passed || stats.sigma <= o.max_sigma;
+        health.passed = health.passed || stats.sigma <= o.health.max_sigma;
         health.level = l;
         health.sigma = stats.sigma;
         health.inliers = stats.inliers;
@@ -801,7 +758,7 @@ struct AlignRunner {
       }
       if (finest) {
         finish_finest_level(stats, level_terms.geometric(), end, health, L,
-                            o.estimate_gain_bias ? 8 : 6, res);
+                            o.terms.gain_bias ? 8 : 6, res);
       }
     }
     out.T_cur_ref = est.T_cur_ref;
@@ -845,7 +802,7 @@ TrackResult DirectTracker::track(const RgbdFrame& frame) {
   if (bad.empty()) bad = check_frame(frame, camera_);
   if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
   prepare_frame(m, frame, options_);
-  TrackResult result = track_prepared(frame.t_ns, frame.depth_t_ns);
+  TrackResult result = track_prepared(frame.t_ns);
   m.depth_raw.release();  // the caller's buffer: not held past the call
   return result;
 }
@@ -856,69 +813,43 @@ TrackResult DirectTracker::track(const DisparityFrame& frame) {
   if (bad.empty()) bad = check_frame(frame, camera_);
   if (!bad.empty()) return invalid_input(frame, bad, m.has_prev ? m.T_world_prev : SE3());
   prepare_frame(m, frame, options_);
-  return track_prepared(frame.t_ns, 0);
+  return track_prepared(frame.t_ns);
 }
 
 namespace {
 
 // One frame of the tracking policy (thesis 5.2): the first frame defines the world; later ones
-// are aligned to the keyframe from a constant-velocity prediction, retried against the previous
-// frame where that fails, and switch the keyframe when they leave it; a failure restarts from
-// the frame itself.
+// are aligned to the keyframe from a constant-velocity prediction and switch the keyframe when
+// they leave it; a failure restarts from the frame itself.
 class TrackingStep {
  public:
-  TrackingStep(DirectTracker::Impl& m, const DirectTrackerOptions& o, TimeNs t_ns,
-               TimeNs depth_t_ns)
-      : m_(m), o_(o), t_ns_(t_ns), depth_t_ns_(depth_t_ns) {}
+  TrackingStep(DirectTracker::Impl& m, const DirectTrackerOptions& o, TimeNs t_ns)
+      : m_(m), o_(o), t_ns_(t_ns) {}
 
   TrackResult run() {
-    set_depth_time_shift(m_.has_prev && m_.has_velocity, m_.velocity, m_.dt_prev);
     if (!m_.has_ref || !m_.has_prev) return start_sequence();
     const SE3 T_world_pred = predict();
     const SE3 T_ref_guess = m_.T_world_ref.inverse() * T_world_pred;
     AlignOutcome a = AlignRunner::align_with_fallback(m_, o_, T_ref_guess.inverse());
     const bool fallback = a.result.geometric_fallback;
-    const TimeNs keyframe_t_ns = m_.ref_t_ns;
-    const SE3 T_world_keyframe = m_.T_world_ref;
-    const bool retried = retry_previous_frame(T_world_pred, a);
     TrackResult result = a.result;
-    result.retried_previous = retried;
     result.t_ns = t_ns_;
-    // The keyframe's alignment stood, but its reference data were replaced by the previous
-    // frame's for the retry: this frame then becomes the keyframe.
-    const bool keyframe_lost = !retried && m_.ref_t_ns != keyframe_t_ns;
-    if (keyframe_lost) {
-      m_.T_world_ref = T_world_keyframe;
-      m_.ref_t_ns = keyframe_t_ns;
-    }
-    if (fallback && result.ok() && o_.fallback_rotation_from_previous_frame) {
+    if (fallback && result.ok() && o_.fallback.rotation_from_previous_frame) {
       refine_fallback_rotation(a, result);
     }
     result.ref_t_ns = m_.ref_t_ns;
     if (result.ok()) {
-      accept(a.T_cur_ref.inverse(), fallback, keyframe_lost, result);
+      accept(a.T_cur_ref.inverse(), fallback, result);
     } else {
       restart(T_world_pred, result);
     }
     m_.dt_prev = dt_;
     m_.t_prev = t_ns_;
     m_.T_world_prev = result.T_world_cam;
-    m_.rs_prev_rectified = m_.rs_frame_rectified;
     return result;
   }
 
  private:
-  // The depth map's time offset, moved by the motion per frame `velocity` over `frame_dt`.
-  void set_depth_time_shift(bool known, const SE3& velocity, TimeNs frame_dt) {
-    const TimeNs offset = depth_t_ns_ != 0 ? depth_t_ns_ - t_ns_ : 0;
-    m_.depth_time_shift = o_.compensate_depth_time_offset && known && frame_dt > 0 && offset != 0 &&
-                          std::llabs(offset) < 100'000'000LL;
-    m_.T_rgb_depth =
-        m_.depth_time_shift
-            ? SE3::exp(static_cast<double>(offset) / static_cast<double>(frame_dt) * velocity.log())
-            : SE3();
-  }
-
   void build_reference() { TrackerAccess::build_reference(m_, o_, m_.level_cameras); }
 
   // The first frame (or the first after a reset) defines the world and is the keyframe.
@@ -938,9 +869,9 @@ class TrackingStep {
     result.new_keyframe = true;
     result.inlier_ratio = 1.0;
     result.overlap = 1.0;
-    result.points = m_.ref[static_cast<std::size_t>(o_.finest_level)].count;
+    result.points = m_.ref[static_cast<std::size_t>(o_.pyramid.finest_level)].count;
     result.covariance.setZero();
-    if (result.points < o_.min_points) {
+    if (result.points < o_.health.min_points) {
       // No alignment ran: the ratios of a frame that cannot even be a reference are unknown.
       result.inlier_ratio = result.overlap = std::numeric_limits<double>::quiet_NaN();
       result.failure = TrackFailure::kTooFewPoints;
@@ -955,36 +886,12 @@ class TrackingStep {
   SE3 predict() {
     SE3 T_world_pred = m_.T_world_prev;
     dt_ = t_ns_ - m_.t_prev;
-    if (o_.constant_velocity_prior && m_.has_velocity && m_.dt_prev > 0 && dt_ > 0) {
+    if (o_.keyframes.constant_velocity_prior && m_.has_velocity && m_.dt_prev > 0 && dt_ > 0) {
       const double scale =
           std::clamp(static_cast<double>(dt_) / static_cast<double>(m_.dt_prev), 0.0, 3.0);
       T_world_pred = m_.T_world_prev * SE3::exp(scale * m_.velocity.log());
     }
     return T_world_pred;
-  }
-
-  // A failure (typically motion blur against a sharp keyframe) tries the previous frame as the
-  // reference; its result replaces `a` when better. True when it did.
-  bool retry_previous_frame(const SE3& T_world_pred, AlignOutcome& a) {
-    if (a.result.ok() || !o_.retry_previous_frame || m_.ref_t_ns == m_.t_prev) return false;
-    // The previous frame's depth time offset is not kept: none applied.
-    const bool shift = m_.depth_time_shift;
-    m_.swap_current_and_previous();
-    m_.depth_time_shift = false;
-    m_.rs_ref_rectified = m_.rs_prev_rectified;
-    build_reference();
-    m_.swap_current_and_previous();
-    m_.depth_time_shift = shift;
-    m_.T_world_ref = m_.T_world_prev;
-    m_.ref_t_ns = m_.t_prev;
-    const SE3 T_prev_guess = m_.T_world_prev.inverse() * T_world_pred;
-    AlignOutcome b = AlignRunner::align(m_, o_, T_prev_guess.inverse(), AlignTerms::from(o_));
-    b.result.iterations += a.result.iterations;
-    if (b.result.ok() && (!a.result.ok() || b.result.sigma < a.result.sigma)) {
-      a = b;
-      return true;
-    }
-    return false;
   }
 
   // The fallback's rotation from the previous frame (docs/odometry.md, "The fallback's rotation
@@ -1001,16 +908,14 @@ class TrackingStep {
   }
 
   // A tracked frame: its pose, the motion model, and a new keyframe where it leaves the old.
-  void accept(const SE3& T_ref_cur, bool fallback, bool keyframe_lost, TrackResult& result) {
+  void accept(const SE3& T_ref_cur, bool fallback, TrackResult& result) {
     result.T_ref_cur = T_ref_cur;
     result.T_world_cam = m_.T_world_ref * T_ref_cur;
     const bool rs_restart = rolling_shutter_restart();
-    const bool switch_kf =
-        rs_restart || keyframe_lost || leaves_keyframe(T_ref_cur, fallback, result);
+    const bool switch_kf = rs_restart || leaves_keyframe(T_ref_cur, fallback, result);
     m_.velocity = m_.T_world_prev.inverse() * result.T_world_cam;
     m_.has_velocity = true;
     if (!switch_kf) return;
-    set_depth_time_shift(true, m_.velocity, dt_);  // with this frame's estimated motion
     if (rs_restart) {
       m_.rectify_rolling_shutter(m_.velocity.so3().log() / ns_to_s(dt_), o_);
       m_.rs_frame_rectified = true;
@@ -1034,14 +939,14 @@ class TrackingStep {
   // moved too far from it.
   [[nodiscard]] bool leaves_keyframe(const SE3& T_ref_cur, bool fallback,
                                      const TrackResult& result) const {
-    const ReferenceLevel& L = m_.ref[static_cast<std::size_t>(o_.finest_level)];
+    const ReferenceLevel& L = m_.ref[static_cast<std::size_t>(o_.pyramid.finest_level)];
     // A frame whose images agree with the keyframe's only on a coarser level (the fallback's
     // photometric check) is blurred unlike it: the next frames, blurred alike, are aligned to it
     // (as to a frame that failed).
-    const bool blurred = fallback && result.photometric_level > o_.finest_level;
-    return blurred || !o_.use_keyframes || result.overlap < o_.keyframe_min_overlap ||
-           rotation_angle_deg(T_ref_cur) > o_.keyframe_max_rotation_deg ||
-           T_ref_cur.translation().norm() > o_.keyframe_max_translation_rel * L.median_depth;
+    const bool blurred = fallback && result.photometric_level > o_.pyramid.finest_level;
+    return blurred || !o_.keyframes.enabled || result.overlap < o_.keyframes.min_overlap ||
+           rotation_angle_deg(T_ref_cur) > o_.keyframes.max_rotation_deg ||
+           T_ref_cur.translation().norm() > o_.keyframes.max_translation_rel * L.median_depth;
   }
 
   // Report the prediction, and start again from this frame: it becomes the reference.
@@ -1059,14 +964,13 @@ class TrackingStep {
   DirectTracker::Impl& m_;
   const DirectTrackerOptions& o_;
   const TimeNs t_ns_;
-  const TimeNs depth_t_ns_;
   TimeNs dt_ = 0;
 };
 
 }  // namespace
 
-TrackResult DirectTracker::track_prepared(TimeNs t_ns, TimeNs depth_t_ns) {
-  return TrackingStep(*impl_, options_, t_ns, depth_t_ns).run();
+TrackResult DirectTracker::track_prepared(TimeNs t_ns) {
+  return TrackingStep(*impl_, options_, t_ns).run();
 }
 
 template <typename Frame>

@@ -2,12 +2,37 @@
 #include "kestrel/odometry/direct_tracker_options.hpp"
 
 #include <cmath>
+#include <stdexcept>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::odometry {
+
+std::string_view to_string(GeometricTerm term) {
+  switch (term) {
+    case GeometricTerm::kOff:
+      return "off";
+    case GeometricTerm::kFallback:
+      return "fallback";
+    case GeometricTerm::kAlways:
+      return "always";
+  }
+  return "unknown";
+}
+
+void parse_option(std::string_view name, GeometricTerm& term) {
+  if (name == "off") {
+    term = GeometricTerm::kOff;
+  } else if (name == "fallback") {
+    term = GeometricTerm::kFallback;
+  } else if (name == "always") {
+    term = GeometricTerm::kAlways;
+  } else {
+    throw std::invalid_argument("'" + std::string(name) + "': expected off, fallback or always");
+  }
+}
 
 void DirectTrackerOptions::validate() const {
   auto fail = [](const std::string& field, const std::string& why) {
@@ -19,49 +44,57 @@ void DirectTrackerOptions::validate() const {
   auto fraction = [&](const char* name, double v) {
     if (!(v >= 0.0 && v <= 1.0)) fail(name, "must be within [0, 1]");
   };
-  if (pyramid_levels < 1 || pyramid_levels > 10) fail("pyramid_levels", "must be 1 to 10");
-  if (finest_level < 0 || finest_level >= pyramid_levels) {
-    fail("finest_level", "must be within [0, pyramid_levels)");
+  const PyramidOptions& p = pyramid;
+  if (p.levels < 1 || p.levels > 10) fail("pyramid.levels", "must be 1 to 10");
+  if (p.finest_level < 0 || p.finest_level >= p.levels) {
+    fail("pyramid.finest_level", "must be within [0, pyramid.levels)");
   }
-  if (fallback_rotation_coarsest_level < 0) {
-    fail("fallback_rotation_coarsest_level",
-         "must be >= 0 (levels above pyramid_levels are not iterated)");
-  }
-  if (!(depth_pyramid_max_relative_spread >= 0.0)) {
-    fail("depth_pyramid_max_relative_spread", "must be >= 0");
-  }
-  finite_pos("min_depth_m", min_depth_m);
-  finite_pos("max_depth_m", max_depth_m);
-  if (max_depth_m <= min_depth_m) fail("max_depth_m", "must exceed min_depth_m");
-  if (!(min_gradient >= 0.0)) fail("min_gradient", "must be >= 0");
-  if (!(rolling_shutter_readout_s >= 0.0) || !std::isfinite(rolling_shutter_readout_s) ||
-      rolling_shutter_readout_s > 1.0) {
-    fail("rolling_shutter_readout_s", "must be in [0, 1] s");
+  if (!(p.depth_max_relative_spread >= 0.0)) {
+    fail("pyramid.depth_max_relative_spread", "must be >= 0");
   }
 
-  if (max_points_per_level < 0) fail("max_points_per_level", "must be >= 0 (0: no limit)");
-  finite_pos("tukey_c", tukey_c);
-  if (!(sigma_freeze_change >= 0.0)) fail("sigma_freeze_change", "must be >= 0");
-  finite_pos("min_sigma", min_sigma);
-  finite_pos("min_depth_sigma_m", min_depth_sigma_m);
-  if (!(std::isfinite(depth_noise_per_m) && depth_noise_per_m >= 0.0)) {
-    fail("depth_noise_per_m", "must be >= 0 and finite");
+  const SelectionOptions& s = selection;
+  finite_pos("selection.min_depth_m", s.min_depth_m);
+  finite_pos("selection.max_depth_m", s.max_depth_m);
+  if (s.max_depth_m <= s.min_depth_m) {
+    fail("selection.max_depth_m", "must exceed selection.min_depth_m");
   }
-  finite_pos("max_level_jump_px", max_level_jump_px);
-  finite_pos("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
-  if (!(update_norm_tolerance >= 0.0)) fail("update_norm_tolerance", "must be >= 0");
-  if (!(update_change_tolerance >= 0.0)) fail("update_change_tolerance", "must be >= 0");
-  if (max_iterations_finest < 1) fail("max_iterations_finest", "must be >= 1");
-  if (max_iterations_coarse < 1) fail("max_iterations_coarse", "must be >= 1");
-  fraction("keyframe_min_overlap", keyframe_min_overlap);
-  finite_pos("keyframe_max_rotation_deg", keyframe_max_rotation_deg);
-  finite_pos("keyframe_max_translation_rel", keyframe_max_translation_rel);
-  fraction("min_overlap", min_overlap);
-  fraction("min_inlier_ratio", min_inlier_ratio);
-  finite_pos("max_sigma", max_sigma);
-  if (min_points < 8) fail("min_points", "must be >= 8");
-  finite_pos("max_translation_m", max_translation_m);
-  finite_pos("max_rotation_deg", max_rotation_deg);
+  if (!(s.min_gradient >= 0.0)) fail("selection.min_gradient", "must be >= 0");
+  if (s.max_points < 0) fail("selection.max_points", "must be >= 0 (0: no limit)");
+
+  finite_pos("robust.tukey_c", robust.tukey_c);
+  if (!(robust.sigma_freeze_change >= 0.0)) fail("robust.sigma_freeze_change", "must be >= 0");
+  finite_pos("robust.min_sigma", robust.min_sigma);
+
+  finite_pos("terms.min_depth_sigma_m", terms.min_depth_sigma_m);
+  if (!(std::isfinite(terms.depth_noise_per_m) && terms.depth_noise_per_m >= 0.0)) {
+    fail("terms.depth_noise_per_m", "must be >= 0 and finite");
+  }
+  finite_pos("terms.depth_max_relative_spread", terms.depth_max_relative_spread);
+
+  if (!(solver.update_norm_tolerance >= 0.0)) fail("solver.update_norm_tolerance", "must be >= 0");
+  if (!(solver.update_change_tolerance >= 0.0)) {
+    fail("solver.update_change_tolerance", "must be >= 0");
+  }
+  if (solver.max_iterations_finest < 1) fail("solver.max_iterations_finest", "must be >= 1");
+  if (solver.max_iterations_coarse < 1) fail("solver.max_iterations_coarse", "must be >= 1");
+
+  fraction("keyframes.min_overlap", keyframes.min_overlap);
+  finite_pos("keyframes.max_rotation_deg", keyframes.max_rotation_deg);
+  finite_pos("keyframes.max_translation_rel", keyframes.max_translation_rel);
+
+  if (fallback.rotation_coarsest_level < 0) {
+    fail("fallback.rotation_coarsest_level",
+         "must be >= 0 (levels above pyramid.levels are not iterated)");
+  }
+  finite_pos("fallback.max_level_jump_px", fallback.max_level_jump_px);
+
+  fraction("health.min_overlap", health.min_overlap);
+  fraction("health.min_inlier_ratio", health.min_inlier_ratio);
+  finite_pos("health.max_sigma", health.max_sigma);
+  if (health.min_points < 8) fail("health.min_points", "must be >= 8");
+  finite_pos("health.max_translation_m", health.max_translation_m);
+  finite_pos("health.max_rotation_deg", health.max_rotation_deg);
 }
 
 std::string DirectTrackerOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
@@ -70,7 +103,11 @@ DirectTrackerOptions DirectTrackerOptions::from_yaml(const YAML::Node& node,
                                                      const std::string& source) {
   DirectTrackerOptions o;
   io::option_fields::read_fields(node, source, "tracker", o);
-  o.validate();
+  try {
+    o.validate();
+  } catch (const InputError& e) {
+    throw InputError(source + ": " + e.what());  // the file, then the field
+  }
   return o;
 }
 

@@ -8,12 +8,12 @@
 namespace kestrel::odometry {
 
 SolverRules SolverRules::for_level(const DirectTrackerOptions& o, int level) {
-  return {level == 0 ? o.max_iterations_finest : o.max_iterations_coarse,
-          o.min_points,
-          o.stop_on_cost_increase,
-          o.update_norm_tolerance,
-          o.update_change_tolerance,
-          o.estimate_gain_bias};
+  return {level == 0 ? o.solver.max_iterations_finest : o.solver.max_iterations_coarse,
+          o.health.min_points,
+          o.solver.stop_on_cost_increase,
+          o.solver.update_norm_tolerance,
+          o.solver.update_change_tolerance,
+          o.terms.gain_bias};
 }
 
 LevelEnd LevelSolver::run() {

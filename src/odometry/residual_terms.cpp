@@ -91,19 +91,14 @@ void PhotometricTerm::accumulate(Matrix8d& H, Vector8d& g) const {
 // Point-to-plane
 
 PointToPlaneTerm::PointToPlaneTerm(const ReferenceLevel& L, const cv::Mat& depth,
-                                   float max_relative_spread, const SE3* T_rgb_depth,
-                                   TermBuffers& buffers, float tukey_c, const ScaleRule& rule)
+                                   float max_relative_spread, TermBuffers& buffers, float tukey_c,
+                                   const ScaleRule& rule)
     : ResidualTerm(buffers, L.count, tukey_c, rule),
       L_(L),
       depth_(depth),
-      max_spread_(max_relative_spread),
-      T_rgb_depth_(T_rgb_depth) {}
+      max_spread_(max_relative_spread) {}
 
 int PointToPlaneTerm::evaluate(const Estimate& e) {
-  if (T_rgb_depth_ != nullptr) {
-    valid_ = evaluate_shifted(e.T_cur_ref);
-    return valid_;
-  }
   const kernels::PlanePointsView points{L_.x.data(),       L_.y.data(),          L_.z.data(),
                                         L_.nx.data(),      L_.ny.data(),         L_.nz.data(),
                                         L_.n_dot_p.data(), L_.has_normal.data(), L_.count};
@@ -120,73 +115,6 @@ int PointToPlaneTerm::evaluate(const Estimate& e) {
   valid_ = kernels::warp_point_to_plane(points, depth, kernels::FloatPose::from(e.T_cur_ref),
                                         max_spread_, b_.residual.data(), b_.valid.data(), jac);
   return valid_;
-}
-
-// The same with the depth map taken at another time than the image
-// (compensate_depth_time_offset): each sample is read where the ray was then.
-int PointToPlaneTerm::evaluate_shifted(const SE3& T_cur_ref) {
-  const ReferenceLevel& L = L_;
-  const Eigen::Matrix3f R = T_cur_ref.rotation_matrix().cast<float>();
-  const Eigen::Vector3f t = T_cur_ref.translation().cast<float>();
-  const float fx = L.fx, fy = L.fy, cx = L.cx, cy = L.cy;
-  const auto umax = static_cast<float>(depth_.cols - 1);
-  const auto vmax = static_cast<float>(depth_.rows - 1);
-  const float* data = depth_.ptr<float>();
-  const auto stride = static_cast<std::ptrdiff_t>(depth_.step1());
-  const float spread = 1.0F + max_spread_;
-  const Eigen::Matrix3f Rs = T_rgb_depth_->rotation_matrix().cast<float>();
-  const Eigen::Vector3f ts = T_rgb_depth_->translation().cast<float>();
-  float* res = b_.residual.data();
-  std::uint8_t* val = b_.valid.data();
-  int count = 0;
-  for (int i = 0; i < L.count; ++i) {
-    val[i] = 0;
-    res[i] = 0.0F;
-    if (!L.has_normal[static_cast<std::size_t>(i)]) continue;
-    const Eigen::Vector3f P(L.x[static_cast<std::size_t>(i)], L.y[static_cast<std::size_t>(i)],
-                            L.z[static_cast<std::size_t>(i)]);
-    const Eigen::Vector3f X = R * P + t;
-    if (!(X.z() > 1e-3F)) continue;
-    float u = fx * X.x() / X.z() + cx;
-    float v = fy * X.y() / X.z() + cy;
-    // Where the ray was when the depth map was taken.
-    const Eigen::Vector3f ray =
-        Rs.transpose() * Eigen::Vector3f((u - cx) / fx, (v - cy) / fy, 1.0F);
-    if (!(ray.z() > 1e-6F)) continue;
-    u = fx * ray.x() / ray.z() + cx;
-    v = fy * ray.y() / ray.z() + cy;
-    if (!(u >= 0.0F && u < umax && v >= 0.0F && v < vmax)) continue;
-    const int u0 = static_cast<int>(u);
-    const int v0 = static_cast<int>(v);
-    const float* p = data + v0 * stride + u0;
-    const float z00 = p[0], z01 = p[1], z10 = p[stride], z11 = p[stride + 1];
-    if (!(z00 > 0.0F && z01 > 0.0F && z10 > 0.0F && z11 > 0.0F && z00 < 1e3F && z01 < 1e3F &&
-          z10 < 1e3F && z11 < 1e3F)) {
-      continue;
-    }
-    const float zmin = std::min(std::min(z00, z01), std::min(z10, z11));
-    const float zmax = std::max(std::max(z00, z01), std::max(z10, z11));
-    if (zmax > spread * zmin) continue;
-    const float a = u - static_cast<float>(u0);
-    const float b = v - static_cast<float>(v0);
-    const float z = (1.0F - b) * ((1.0F - a) * z00 + a * z01) + b * ((1.0F - a) * z10 + a * z11);
-    // Q_cur back-projected at (u, v), moved to the image's time, into the reference frame.
-    const Eigen::Vector3f Q = Rs * Eigen::Vector3f((u - cx) / fx * z, (v - cy) / fy * z, z) + ts;
-    const Eigen::Vector3f Q_ref = R.transpose() * (Q - t);
-    const auto k = static_cast<std::size_t>(i);
-    const float nx = L.nx[k], ny = L.ny[k], nz = L.nz[k];
-    res[i] = nx * Q_ref.x() + ny * Q_ref.y() + nz * Q_ref.z() - L.n_dot_p[k];
-    // J_g = -[n, Q_ref x n] (point_to_plane_pose_jacobian).
-    b_.jac[0][k] = -nx;
-    b_.jac[1][k] = -ny;
-    b_.jac[2][k] = -nz;
-    b_.jac[3][k] = -(Q_ref.y() * nz - Q_ref.z() * ny);
-    b_.jac[4][k] = -(Q_ref.z() * nx - Q_ref.x() * nz);
-    b_.jac[5][k] = -(Q_ref.x() * ny - Q_ref.y() * nx);
-    val[i] = 1;
-    ++count;
-  }
-  return count;
 }
 
 // Points with a normal whose sample is missing cost the maximum, like photometric points

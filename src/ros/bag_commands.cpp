@@ -209,8 +209,7 @@ void PairTracker::track_ready() {
     const auto depth = depth_ready_.find(next_);
     if (rgb == rgb_ready_.end() || depth == depth_ready_.end()) return;
     const std::int64_t t_ns = pairs_.rgb_t_ns[pairs_.pairs[next_].first];
-    const OdometryOutput out = core_.track_rgbd(t_ns, rgb->second, depth->second,
-                                                pairs_.depth_t_ns[pairs_.pairs[next_].second]);
+    const OdometryOutput out = core_.track_rgbd(t_ns, rgb->second, depth->second);
     rgb_ready_.erase(rgb);
     depth_ready_.erase(depth);
     record(t_ns, out);

@@ -268,7 +268,7 @@ void OdometryCore::reset() {
 }
 
 OdometryOutput OdometryCore::track_rgbd(std::int64_t t_ns, const cv::Mat& image,
-                                        const cv::Mat& depth_m, std::int64_t depth_t_ns) {
+                                        const cv::Mat& depth_m) {
   Impl& m = *impl_;
   if (!m.tracker) {
     OdometryOutput out;
@@ -281,8 +281,7 @@ OdometryOutput OdometryCore::track_rgbd(std::int64_t t_ns, const cv::Mat& image,
     return out;
   }
   const auto t0 = std::chrono::steady_clock::now();
-  const odometry::TrackResult r =
-      m.tracker->track(odometry::RgbdFrame{t_ns, image, depth_m, depth_t_ns});
+  const odometry::TrackResult r = m.tracker->track(odometry::RgbdFrame{t_ns, image, depth_m});
   return m.finish(r, ms_since(t0));
 }
 

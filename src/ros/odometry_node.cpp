@@ -336,7 +336,7 @@ void OdometryNode::process_rgbd(const ImagePtr& colour, const ImagePtr& depth) {
     return;
   }
   if (!prepare_frame(t_ns, colour->header.frame_id)) return;
-  const OdometryOutput out = core_->track_rgbd(t_ns, c.image, d.image, to_ns(depth->header.stamp));
+  const OdometryOutput out = core_->track_rgbd(t_ns, c.image, d.image);
   publish(out);
 }
 

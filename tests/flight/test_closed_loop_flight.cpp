@@ -20,7 +20,7 @@ FlightOptions small_options() {
   o.vision.height = 120;
   o.vision.f_px = 125.0;
   o.vision.matcher.max_disparity = 32;
-  o.vision.tracker.pyramid_levels = 4;
+  o.vision.tracker.pyramid.levels = 4;
   return o;
 }
 

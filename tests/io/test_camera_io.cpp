@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <utility>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/camera_io.hpp"
@@ -78,6 +79,42 @@ TEST(CameraYaml, MissingFieldIsNamed) {
   }
   std::ofstream(dir / "other.yaml") << "foo: 1\n";
   EXPECT_THROW(load_camera_file(dir / "other.yaml"), InputError);
+}
+
+// The RGB-D sensor facts of Kestrel's camera map: depth scale and rolling-shutter readout.
+TEST(CameraYaml, SensorFactsAreReadAndChecked) {
+  const auto dir = test::fresh_temp_dir("io");
+  const std::string pinhole =
+      "camera:\n  width: 640\n  height: 480\n  fx: 525\n  fy: 525\n"
+      "  cx: 319.5\n  cy: 239.5\n";
+  std::ofstream(dir / "plain.yaml") << pinhole;
+  const CameraFile plain = load_camera_file(dir / "plain.yaml");
+  EXPECT_FALSE(plain.depth_scale);
+  EXPECT_EQ(plain.rolling_shutter_readout_s, 0.0);
+  std::ofstream(dir / "rgbd.yaml")
+      << pinhole << "  depth_scale: 1000\n  rolling_shutter_readout_s: 0.02\n";
+  const CameraFile rgbd = load_camera_description((dir / "rgbd.yaml").string());
+  EXPECT_EQ(rgbd.depth_scale, 1000.0);
+  EXPECT_EQ(rgbd.rolling_shutter_readout_s, 0.02);
+  for (const char* preset : {"fr1", "fr2", "fr3", "ros"}) {
+    const CameraFile p = load_camera_description(preset);
+    EXPECT_EQ(p.depth_scale, 5000.0) << preset;
+    EXPECT_EQ(p.rolling_shutter_readout_s, 0.0) << preset;
+  }
+  for (const auto& [line, field] :
+       {std::pair{"  depth_scale: 0\n", "camera.depth_scale"},
+        std::pair{"  depth_scale: many\n", "camera.depth_scale"},
+        std::pair{"  rolling_shutter_readout_s: -0.01\n", "camera.rolling_shutter_readout_s"},
+        std::pair{"  rolling_shutter_readout_s: .nan\n", "camera.rolling_shutter_readout_s"}}) {
+    std::ofstream(dir / "bad.yaml") << pinhole << line;
+    try {
+      load_camera_file(dir / "bad.yaml");
+      ADD_FAILURE() << line << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+    }
+  }
 }
 
 // Found by the sensor_yaml fuzzer: a resolution beyond int's range was cast to int (undefined

@@ -23,7 +23,7 @@ StereoOdometryExperimentOptions small_corridor() {
   o.rate_hz = 10.0;
   o.matcher.block_size = 7;
   o.matcher.max_disparity = 32;
-  o.tracker.pyramid_levels = 3;  // level 3 would be 20x15 pixels
+  o.tracker.pyramid.levels = 3;  // level 3 would be 20x15 pixels
   return o;
 }
 

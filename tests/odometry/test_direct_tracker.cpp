@@ -10,6 +10,8 @@
 #include <random>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/interpolation.hpp"
@@ -147,17 +149,13 @@ TEST_P(KnownMotion, RecoveredFromRenderedPair) {
   const auto ref = render(room, cam, T_world_ref);
   const auto cur = render(room, cam, T_world_ref * mc.T_ref_cur);
   // The photometric alignment, and the joint photometric + point-to-plane one that the
-  // geometric fallback runs (on exact rendered depth: its sigma rests on the noise-model floor);
-  // and the photometric one with bicubic sampling on every level (bicubic_coarse_levels).
-  for (const int variant : {0, 1, 2}) {
+  // geometric fallback runs (on exact rendered depth: its sigma rests on the noise-model floor).
+  for (const int variant : {0, 1}) {
     DirectTrackerOptions o;
-    o.use_depth_residual = variant == 1;
-    o.bicubic_coarse_levels = variant == 2;
+    o.terms.geometric = variant == 1 ? GeometricTerm::kAlways : GeometricTerm::kFallback;
     DirectTracker tracker(cam, o);
     const TrackResult r = tracker.align_pair(ref, cur);
-    const std::string what = std::string(mc.name) + (variant == 1   ? " (with depth)"
-                                                     : variant == 2 ? " (bicubic on every level)"
-                                                                    : "");
+    const std::string what = std::string(mc.name) + (variant == 1 ? " (with depth)" : "");
     ASSERT_TRUE(r.ok()) << what << ": " << r.failure_detail;
     EXPECT_FALSE(r.geometric_fallback) << what;
     EXPECT_LT(translation_error_m(r.T_ref_cur, mc.T_ref_cur), 1e-3) << what;
@@ -219,7 +217,7 @@ TEST(DirectTracker, BlurredFrameIsTrackedByTheGeometricFallback) {
   cv::blur(cur.image, cur.image, cv::Size(41, 1));
 
   DirectTrackerOptions photometric_only;
-  photometric_only.geometric_fallback = false;
+  photometric_only.terms.geometric = GeometricTerm::kOff;
   const TrackResult p = DirectTracker(cam, photometric_only).align_pair(ref, cur);
   EXPECT_EQ(p.failure, TrackFailure::kHighResidual) << "sigma " << p.sigma;
 
@@ -229,7 +227,7 @@ TEST(DirectTracker, BlurredFrameIsTrackedByTheGeometricFallback) {
   EXPECT_TRUE(r.geometric_fallback);
   // The images agree only on a coarse level (the blur is ~2.6 pixels on level 4).
   EXPECT_GT(r.photometric_level, 0);
-  EXPECT_LE(r.sigma, DirectTrackerOptions{}.max_sigma);
+  EXPECT_LE(r.sigma, DirectTrackerOptions{}.health.max_sigma);
   EXPECT_GT(r.depth_inlier_ratio, 0.5);
   EXPECT_LT(translation_error_m(r.T_ref_cur, T), 3e-3);
   EXPECT_LT(rotation_error_deg(r.T_ref_cur, T), 0.1);
@@ -242,7 +240,7 @@ TEST(DirectTracker, BlurredFrameIsTrackedByTheGeometricFallback) {
 }
 
 // A fast pan: a sharp keyframe, then a frame blurred by a 41-pixel box along its rows. The
-// blurred frame takes the fallback; with fallback_rotation_from_previous_frame (the default) its
+// blurred frame takes the fallback; with fallback.rotation_from_previous_frame (the default) its
 // rotation comes from the previous frame aligned to it. Both ways it must follow the true motion,
 // and the translation is the keyframe alignment's in both.
 struct BlurredPanRun {
@@ -264,7 +262,7 @@ BlurredPanRun run_blurred_pan(const DirectTrackerOptions& options) {
 
 TEST(DirectTracker, FallbackRotationFromThePreviousFrameFollowsABlurredPan) {
   DirectTrackerOptions keyframe_only;
-  keyframe_only.fallback_rotation_from_previous_frame = false;
+  keyframe_only.fallback.rotation_from_previous_frame = false;
   const BlurredPanRun k = run_blurred_pan(keyframe_only);
   const BlurredPanRun p = run_blurred_pan(DirectTrackerOptions{});
   ASSERT_TRUE(k.blurred.ok()) << k.blurred.failure_detail;
@@ -337,8 +335,7 @@ StillCameraRun run_still_camera(const DirectTrackerOptions& options) {
 // The target with the defaults (bicubic sampling on the finest level): bilinear
 // sampling's cost has a kink at integer pixel positions, exactly where a still camera's points
 // land, and the finest level would end there short of the noise floor; the C1 bicubic cost has
-// none (measured 100 of 100 frames, max 0.089 mm, rms 0.036 mm against the covariance's 0.042;
-// with bicubic_coarse_levels too: max 0.071 mm).
+// none (measured 100 of 100 frames, max 0.089 mm, rms 0.036 mm against the covariance's 0.042).
 TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   const StillCameraRun s = run_still_camera(DirectTrackerOptions{});
   RecordProperty("max_translation_error_m", std::to_string(s.max_t_err));
@@ -350,13 +347,12 @@ TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   EXPECT_LT(s.rms, 1.2 * s.predicted_rms);
 }
 
-// REGRESSION GUARD for bilinear sampling (bicubic_finest_level and bicubic_coarse_levels false),
+// REGRESSION GUARD for bilinear sampling on every level (bicubic_finest_level false),
 // not the target, which it misses: measured max 0.113 mm, 4 of 100 frames above 0.1 mm (the
 // kink above).
 TEST(DirectTracker, StillCameraWithBilinearSamplingStaysNearIdentity) {
   DirectTrackerOptions o;
-  o.bicubic_finest_level = false;
-  o.bicubic_coarse_levels = false;
+  o.solver.bicubic_finest_level = false;
   const StillCameraRun s = run_still_camera(o);
   EXPECT_LT(s.max_t_err, 1.3e-4);
   EXPECT_GE(s.within_target, 90);  // measured 96
@@ -452,36 +448,71 @@ TEST(ShippedConfig, TrackerYamlEqualsTheDefaultsAndListsEveryOption) {
   const std::filesystem::path file =
       std::filesystem::path(KESTREL_SOURCE_DIR) / "config" / "tracker_default.yaml";
   EXPECT_EQ(DirectTrackerOptions::load(file).to_yaml(), DirectTrackerOptions{}.to_yaml());
+  // Every field by its path ("group.field"): the file leaves none to its default.
   std::set<std::string> shipped, defaults;
-  for (const auto& kv : YAML::LoadFile(file.string())["tracker"]) {
-    shipped.insert(kv.first.as<std::string>());
-  }
-  for (const auto& kv : YAML::Load(DirectTrackerOptions{}.to_yaml())) {
-    defaults.insert(kv.first.as<std::string>());
-  }
+  const auto collect = [](const YAML::Node& map, std::set<std::string>& paths) {
+    for (const auto& group : map) {
+      for (const auto& field : group.second) {
+        paths.insert(group.first.as<std::string>() + "." + field.first.as<std::string>());
+      }
+    }
+  };
+  collect(YAML::LoadFile(file.string())["tracker"], shipped);
+  collect(YAML::Load(DirectTrackerOptions{}.to_yaml()), defaults);
   EXPECT_EQ(shipped, defaults);
+  EXPECT_GT(defaults.size(), 30U);
 }
 
 TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
   DirectTrackerOptions o;
-  o.pyramid_levels = 4;
-  o.pyramid_filter = image::PyramidFilter::kGaussian;
-  o.estimate_gain_bias = false;
-  o.min_gradient = 0.0123;
-  o.geometric_fallback = false;
-  o.max_level_jump_px = 3.5;
+  o.pyramid.levels = 4;
+  o.pyramid.filter = image::PyramidFilter::kGaussian;
+  o.terms.gain_bias = false;
+  o.selection.min_gradient = 0.0123;
+  o.terms.geometric = GeometricTerm::kOff;
+  o.fallback.max_level_jump_px = 3.5;
   const YAML::Node node = YAML::Load(o.to_yaml());
   const DirectTrackerOptions back = DirectTrackerOptions::from_yaml(node, "test");
   EXPECT_EQ(back.to_yaml(), o.to_yaml());
-  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_level: 3"), "t"), InputError);
-  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_levels: many"), "t"), InputError);
-  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("finest_level: 7"), "t"), InputError);
-  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("pyramid_filter: median"), "t"),
-               InputError);
-  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("max_level_jump_px: 0"), "t"),
-               InputError);
-  EXPECT_THROW(DirectTrackerOptions::from_yaml(YAML::Load("depth_noise_per_m: .nan"), "t"),
-               InputError);
+  // Each error names the file and the field by its path; the flat keys of earlier versions are
+  // unknown keys.
+  const auto error_of = [](const char* yaml) -> std::string {
+    try {
+      (void)DirectTrackerOptions::from_yaml(YAML::Load(yaml), "t.yaml");
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "(no InputError)";
+  };
+  for (const auto& [yaml, field] : std::vector<std::pair<const char*, const char*>>{
+           {"pyramid: {level: 3}", "pyramid.level"},
+           {"pyramid: {levels: many}", "pyramid.levels"},
+           {"pyramid: {finest_level: 7}", "pyramid.finest_level"},
+           {"pyramid: {filter: median}", "pyramid.filter"},
+           {"pyramid: 5", "pyramid"},
+           {"terms: {geometric: sometimes}", "terms.geometric"},
+           {"fallback: {max_level_jump_px: 0}", "fallback.max_level_jump_px"},
+           {"terms: {depth_noise_per_m: .nan}", "terms.depth_noise_per_m"},
+           {"health: {min_points: 3}", "health.min_points"},
+           {"pyramid_levels: 5", "pyramid_levels"},
+           {"use_depth_residual: true", "use_depth_residual"},
+           {"rolling_shutter_readout_s: 0.02", "rolling_shutter_readout_s"},
+       }) {
+    const std::string e = error_of(yaml);
+    EXPECT_NE(e.find(field), std::string::npos) << yaml << ": " << e;
+    EXPECT_NE(e.find("t.yaml"), std::string::npos) << yaml << ": " << e;
+  }
+}
+
+// `terms.geometric` replaces the two switches of earlier versions: off (no geometric residual),
+// fallback (the default: only where the photometric alignment fails or jumps), always.
+TEST(DirectTrackerOptions, GeometricTermNames) {
+  EXPECT_EQ(DirectTrackerOptions{}.terms.geometric, GeometricTerm::kFallback);
+  for (const GeometricTerm term :
+       {GeometricTerm::kOff, GeometricTerm::kFallback, GeometricTerm::kAlways}) {
+    const std::string yaml = "terms: {geometric: " + std::string(to_string(term)) + "}";
+    EXPECT_EQ(DirectTrackerOptions::from_yaml(YAML::Load(yaml), "t").terms.geometric, term);
+  }
 }
 
 }  // namespace

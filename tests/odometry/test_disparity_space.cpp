@@ -268,16 +268,12 @@ TEST(DisparityTracker, BadRigAndOptionsAreClearErrors) {
   EXPECT_NE(input_error_of([&] { DirectTracker t(rig); }).find("baseline"), std::string::npos);
   rig = test_rig();
   DirectTrackerOptions o;
-  o.use_depth_residual = true;
-  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("use_depth_residual"),
+  o.terms.geometric = GeometricTerm::kAlways;
+  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("terms.geometric"),
             std::string::npos);
   o = {};
-  o.compensate_depth_time_offset = true;
-  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("compensate_depth_time_offset"),
-            std::string::npos);
-  o = {};
-  o.pyramid_levels = 0;
-  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("pyramid_levels"),
+  o.pyramid.levels = 0;
+  EXPECT_NE(input_error_of([&] { DirectTracker t(rig, o); }).find("pyramid.levels"),
             std::string::npos);
 }
 
@@ -304,7 +300,7 @@ TEST(DisparityTracker, BadFramesAreReportedNotCrashed) {
   f.image = cv::Mat();
   EXPECT_NE(detail_of(f).find("empty image"), std::string::npos);
   // A depth frame for a disparity tracker, and a disparity frame for a depth tracker.
-  const TrackResult r = tracker.track(RgbdFrame{0, good.image, good.disparity_px, 0});
+  const TrackResult r = tracker.track(RgbdFrame{0, good.image, good.disparity_px});
   EXPECT_EQ(r.failure, TrackFailure::kInvalidInput);
   EXPECT_NE(r.failure_detail.find("DisparityFrame"), std::string::npos);
   DirectTracker depth_tracker(rig.left());

@@ -149,8 +149,7 @@ Solved solve(Terms which, const ReferenceLevel& L, const Views& cur) {
   constexpr float kC = 4.6851F;
   PhotometricTerm photometric(L, cur.intensity, kernels::Sampling::kBicubic, photometric_buffers,
                               kC, {8, 0.5 / 255.0, 1e-6, 0.0});
-  PointToPlaneTerm geometric(L, cur.depth, 0.05F, nullptr, geometric_buffers, kC,
-                             {6, 1e-5, 0.0, 5e-5});
+  PointToPlaneTerm geometric(L, cur.depth, 0.05F, geometric_buffers, kC, {6, 1e-5, 0.0, 5e-5});
   std::vector<ResidualTerm*> terms;
   if (which != Terms::kPointToPlane) terms.push_back(&photometric);
   if (which != Terms::kPhotometric) terms.push_back(&geometric);

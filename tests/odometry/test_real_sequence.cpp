@@ -34,7 +34,7 @@ TEST(RealSequence, Freiburg1RpyPart1AccuracyRegression) {
   int failures = 0, fallbacks = 0;
   for (std::size_t i = 0; i < seq.size(); ++i) {
     const io::RgbdImages im = seq.load(i);
-    const TrackResult r = tracker.track({im.t_ns, im.bgr, im.depth_m, im.depth_t_ns});
+    const TrackResult r = tracker.track(RgbdFrame{im.t_ns, im.bgr, im.depth_m});
     failures += r.ok() ? 0 : 1;
     fallbacks += r.geometric_fallback ? 1 : 0;
     ASSERT_TRUE(r.T_world_cam.translation().allFinite());

@@ -1,6 +1,6 @@
-// Rolling-shutter compensation (DirectTrackerOptions::rolling_shutter_readout_s) on a rendered
-// sequence whose rows were each seen at their own time: the known motion is recovered with the
-// model and is biased without it.
+// Rolling-shutter compensation (RollingShutter::readout_s, from the camera description) on a
+// rendered sequence whose rows were each seen at their own time: the known motion is recovered
+// with the model and is biased without it.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <string>
 
+#include "kestrel/core/error.hpp"
 #include "kestrel/image/rolling_shutter.hpp"
 #include "kestrel/image/undistortion.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
@@ -38,9 +39,8 @@ RunErrors track(double render_readout_s, double model_readout_s, bool bicubic = 
   const PinholeCamera cam = test::test_camera();
   const auto room = test::make_room();
   DirectTrackerOptions o;
-  o.rolling_shutter_readout_s = model_readout_s;
-  o.bicubic_finest_level = bicubic;
-  DirectTracker tracker(cam, o);
+  o.solver.bicubic_finest_level = bicubic;
+  DirectTracker tracker(cam, o, RollingShutter{model_readout_s});
   RunErrors e;
   const SE3 T_world_first = pose_at(0.0);
   const double v_mid = 0.5 * (cam.height() - 1);
@@ -149,29 +149,12 @@ TEST(RollingShutter, WithoutRollingShutterTheSequenceIsTrackedExactly) {
   EXPECT_LT(a.max_translation_m, 1e-3);
 }
 
-TEST(RollingShutter, StereoInputRefusesTheOption) {
-  // Disparity input comes from rectified global-shutter views: the option is an error there.
-  DirectTrackerOptions o;
-  o.rolling_shutter_readout_s = 0.02;
-  const RectifiedStereo rig{400.0, 159.5, 119.5, 0.1, 320, 240};
-  try {
-    DirectTracker tracker(rig, o);
-    FAIL() << "accepted";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("rolling_shutter_readout_s"), std::string::npos)
-        << e.what();
-  }
-}
-
 TEST(RollingShutter, InvalidReadoutIsRejectedByName) {
-  DirectTrackerOptions o;
-  o.rolling_shutter_readout_s = -0.01;
   try {
-    o.validate();
+    DirectTracker tracker(test::test_camera(), {}, RollingShutter{-0.01});
     FAIL() << "negative readout accepted";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("rolling_shutter_readout_s"), std::string::npos)
-        << e.what();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("readout"), std::string::npos) << e.what();
   }
 }
 

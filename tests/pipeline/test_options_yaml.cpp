@@ -59,7 +59,7 @@ TEST(PipelineOptionsYaml, ChangedBlocksRoundTrip) {
   o.drop_stale = false;
   o.pace = Pace::kRecorded;
   o.vo_reference = fusion::OdometryReference::kPreviousFrame;
-  o.tracker.pyramid_levels = 3;
+  o.tracker.pyramid.levels = 3;
   EXPECT_NE(o.to_yaml().find("drop_stale: false\n"), std::string::npos) << o.to_yaml();
   EXPECT_EQ(read_back(o, "pipeline"), o.to_yaml());
 }
@@ -78,22 +78,28 @@ TEST(PipelineOptionsYaml, UnknownKeysNameTheFileAndTheNestedField) {
 
 TEST(PipelineOptionsYaml, InlineTrackerAndTrackerFileExcludeEachOther) {
   const fs::path dir = test::fresh_temp_dir("pipeline_options_yaml");
-  test::write_text(dir / "t.yaml", "tracker:\n  pyramid_levels: 4\n");
+  test::write_text(dir / "t.yaml", "tracker:\n  pyramid:\n    levels: 4\n");
   const PipelineOptions file = PipelineOptions::load_yaml(
       test::write_text(dir / "a.yaml", "input: x\ntracker_options: t.yaml\n"));
-  EXPECT_EQ(file.tracker.pyramid_levels, 4);
+  EXPECT_EQ(file.tracker.pyramid.levels, 4);
   EXPECT_EQ(file.tracker_options_file, dir / "t.yaml");
   const PipelineOptions inline_map = PipelineOptions::load_yaml(
-      test::write_text(dir / "b.yaml", "input: x\ntracker:\n  pyramid_levels: 2\n"));
-  EXPECT_EQ(inline_map.tracker.pyramid_levels, 2);
+      test::write_text(dir / "b.yaml", "input: x\ntracker:\n  pyramid:\n    levels: 2\n"));
+  EXPECT_EQ(inline_map.tracker.pyramid.levels, 2);
   const fs::path both = test::write_text(
-      dir / "c.yaml", "input: x\ntracker_options: t.yaml\ntracker:\n  pyramid_levels: 2\n");
+      dir / "c.yaml", "input: x\ntracker_options: t.yaml\ntracker:\n  pyramid: {levels: 2}\n");
   EXPECT_NE(test::config_error_of(both).find("field 'tracker': excludes tracker_options"),
             std::string::npos)
       << test::config_error_of(both);
   const fs::path bad =
-      test::write_text(dir / "d.yaml", "input: x\ntracker:\n  pyramid_levels: 0\n");
-  EXPECT_NE(test::config_error_of(bad).find("pyramid_levels"), std::string::npos);
+      test::write_text(dir / "d.yaml", "input: x\ntracker:\n  pyramid: {levels: 0}\n");
+  EXPECT_NE(test::config_error_of(bad).find("pyramid.levels"), std::string::npos)
+      << test::config_error_of(bad);
+  // The flat keys of earlier versions are unknown keys, named with their map.
+  const fs::path flat =
+      test::write_text(dir / "e.yaml", "input: x\ntracker:\n  pyramid_levels: 4\n");
+  EXPECT_EQ(test::config_error_of(flat),
+            flat.string() + ": field 'tracker.pyramid_levels': is not a pipeline option");
   fs::remove_all(dir);
 }
 

@@ -17,8 +17,8 @@ std::vector<ReferencePose> library_rgbd_trajectory(const std::string& folder,
   std::vector<ReferencePose> poses;
   for (std::size_t i = 0; i < n; ++i) {
     const io::RgbdImages images = sequence.load(i);
-    const odometry::TrackResult r = tracker.track(
-        odometry::RgbdFrame{images.t_ns, images.bgr, images.depth_m, images.depth_t_ns});
+    const odometry::TrackResult r =
+        tracker.track(odometry::RgbdFrame{images.t_ns, images.bgr, images.depth_m});
     poses.push_back({images.t_ns, r.T_world_cam.translation(), r.T_world_cam.unit_quaternion(),
                      r.ok(), r.covariance});
   }

@@ -47,7 +47,7 @@ TEST(OdometryCore, RgbdMatchesTheLibraryWithRosCovariances) {
   std::size_t with_twist = 0;
   for (std::size_t i = 0; i < kFrames; ++i) {
     const TumFrame f = tum.load(i);
-    const OdometryOutput out = core.track_rgbd(f.t_ns, f.bgr, f.depth_m, f.depth_t_ns);
+    const OdometryOutput out = core.track_rgbd(f.t_ns, f.bgr, f.depth_m);
     ASSERT_FALSE(out.invalid_input) << out.failure;
     EXPECT_EQ(out.t_ns, reference[i].t_ns);
     EXPECT_EQ(out.ok, reference[i].ok) << "frame " << i;
@@ -103,8 +103,8 @@ TEST(OdometryCore, ChildFrameRotatesPosesCovariancesAndTwists) {
   const TumFolder tum(folder);
   for (std::size_t i = 0; i < 8; ++i) {
     const TumFrame f = tum.load(i);
-    const OdometryOutput a = cam.track_rgbd(f.t_ns, f.bgr, f.depth_m, f.depth_t_ns);
-    const OdometryOutput b = base.track_rgbd(f.t_ns, f.bgr, f.depth_m, f.depth_t_ns);
+    const OdometryOutput a = cam.track_rgbd(f.t_ns, f.bgr, f.depth_m);
+    const OdometryOutput b = base.track_rgbd(f.t_ns, f.bgr, f.depth_m);
     ASSERT_TRUE(a.ok && b.ok) << a.failure << b.failure;
     const Eigen::Matrix4d expected = T_base_cam * a.T_odom_child * T_base_cam.inverse();
     EXPECT_LT((b.T_odom_child - expected).cwiseAbs().maxCoeff(), 1e-12);
@@ -125,7 +125,7 @@ TEST(OdometryCore, BadFramesAreReportedAndTrackingGoesOn) {
   OdometryCore core(OdometryCoreOptions{}, load_camera_model("fr1"));
   const TumFolder tum(folder);
   TumFrame f0 = tum.load(0);
-  EXPECT_TRUE(core.track_rgbd(f0.t_ns, f0.bgr, f0.depth_m, f0.depth_t_ns).ok);
+  EXPECT_TRUE(core.track_rgbd(f0.t_ns, f0.bgr, f0.depth_m).ok);
   // Half-size images: not the camera's size.
   cv::Mat small_bgr, small_depth;
   cv::resize(f0.bgr, small_bgr, cv::Size(320, 240));
@@ -140,7 +140,7 @@ TEST(OdometryCore, BadFramesAreReportedAndTrackingGoesOn) {
   EXPECT_TRUE(core.track_rgbd(f0.t_ns + 2'000'000, f0.bgr, depth_u16).invalid_input);
   for (std::size_t i = 1; i < 4; ++i) {
     const TumFrame f = tum.load(i);
-    const OdometryOutput out = core.track_rgbd(f.t_ns, f.bgr, f.depth_m, f.depth_t_ns);
+    const OdometryOutput out = core.track_rgbd(f.t_ns, f.bgr, f.depth_m);
     ASSERT_TRUE(out.ok) << out.failure;
     const Eigen::Vector3d p = out.T_odom_child.block<3, 1>(0, 3);
     EXPECT_LT((p - reference[i].p).norm(), 1e-12) << "the dropped frames left no trace";

@@ -19,21 +19,29 @@ namespace kestrel::io {
 std::optional<PinholeCamera> camera_preset(std::string_view name);
 
 /// A camera description from a file: Kestrel's YAML (a `camera:` map with width, height, fx,
-/// fy, cx, cy and optional `distortion: [k1, k2, p1, p2, k3]`) or an EuRoC sensor.yaml
-/// (intrinsics, resolution, distortion_coefficients, T_BS).
+/// fy, cx, cy, optional `distortion: [k1, k2, p1, p2, k3]` and the optional sensor facts below)
+/// or an EuRoC sensor.yaml (intrinsics, resolution, distortion_coefficients, T_BS).
 struct CameraFile {
   PinholeCamera camera;
-  std::optional<SE3> T_body_sensor;  ///< EuRoC T_BS, when the file has one
+  std::optional<SE3> T_body_sensor{};  ///< EuRoC T_BS, when the file has one
+  /// RGB-D camera: depth image units per metre (`depth_scale`; TUM's PNGs: 5000); unset where
+  /// the description does not say.
+  std::optional<double> depth_scale{};
+  /// Time from reading out the first image row to the last (`rolling_shutter_readout_s`, s): a
+  /// rolling-shutter camera exposes its rows one after another. 0 = global shutter.
+  double rolling_shutter_readout_s = 0.0;
 };
 
 /// Loads either format (detected from the keys). Errors name the file and field.
 CameraFile load_camera_file(const std::filesystem::path& path);
+/// A preset name (TUM: depth scale 5000, readout 0) or a camera file.
+CameraFile load_camera_description(const std::string& preset_or_path);
 
 /// A camera from a YAML map with fx, fy, cx, cy, width, height and optional distortion
 /// [k1, k2, p1, p2(, k3)]; errors name `field.<key>` in `path`.
 PinholeCamera camera_from_yaml(const YAML::Node& map, const std::filesystem::path& path,
                                const std::string& field);
-/// A preset name or a file path.
+/// A preset name or a file path: the pinhole model alone (load_camera_description's camera).
 PinholeCamera load_camera(const std::string& preset_or_path);
 
 /// Kestrel's YAML for a rectified stereo pair: `stereo:` map with f, cu, cv, baseline_m,

@@ -27,9 +27,6 @@ struct RgbdFrame {
   TimeNs t_ns = 0;
   cv::Mat image;    ///< CV_8UC3 BGR, CV_8UC1 gray, or CV_32FC1 intensity in [0, 1]
   cv::Mat depth_m;  ///< CV_32FC1 metres; 0, NaN, inf or negative = no depth
-  /// Time of the depth map when the sensor does not take it with the image (TUM fr1/fr2:
-  /// associated within 20 ms); 0 = simultaneous. See compensate_depth_time_offset.
-  TimeNs depth_t_ns = 0;
 };
 
 /// One rectified stereo frame in disparity space (thesis 2.4): the LEFT view and its disparity.
@@ -39,6 +36,16 @@ struct DisparityFrame {
   /// CV_32FC1, d = uL - uR in full-resolution pixels; <= 0, NaN or inf = no disparity
   /// (sensor::kNoDisparity is +inf).
   cv::Mat disparity_px;
+};
+
+/// How the colour camera reads out its rows: a fact of the sensor that comes with the camera
+/// description (io::CameraFile::rolling_shutter_readout_s), not a tuning option. Rolling-shutter
+/// compensation after Ringaby & Forssen (IJCV 2012) and Kerl et al. (ICCV 2015).
+struct RollingShutter {
+  /// Time from the first row to the last (s); 0 = global shutter. With a readout each frame is
+  /// rectified to its middle row's time (image/rolling_shutter.hpp) with the rotation rate of
+  /// the constant-velocity prior, depth map alike, resampled with the finest level's kernel.
+  double readout_s = 0.0;
 };
 
 enum class TrackFailure : std::uint8_t {
@@ -83,13 +90,12 @@ struct TrackResult {
   double gain = 0.0;          ///< g of I_ref = (1 + g) I_cur + b
   double bias = 0.0;
   bool new_keyframe = false;  ///< this frame became the reference for the next ones
-  bool retried_previous = false;  ///< aligned to the previous frame after the keyframe failed
   /// The photometric alignment failed (blur) or a finer level jumped away from the coarser
   /// one's estimate, and the geometric fallback was accepted by its own health checks
-  /// (DirectTrackerOptions::geometric_fallback).
+  /// (TermsOptions::geometric = fallback, FallbackOptions).
   bool geometric_fallback = false;
   /// The fallback's rotation came from the previous frame
-  /// (DirectTrackerOptions::fallback_rotation_from_previous_frame).
+  /// (FallbackOptions::rotation_from_previous_frame).
   bool fallback_rotation_from_previous = false;
   std::string failure_detail;  ///< human-readable, empty when ok
 };
@@ -113,12 +119,15 @@ struct ReferenceLevel {
 class DirectTracker {
  public:
   /// `camera` is the model of the input images: with distortion, frames are undistorted
-  /// before tracking. Throws InputError for invalid options.
-  explicit DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options = {});
+  /// before tracking; `shutter` how its rows are read out. Throws InputError for invalid
+  /// options or readout.
+  explicit DirectTracker(const PinholeCamera& camera, const DirectTrackerOptions& options = {},
+                         const RollingShutter& shutter = {});
   /// Disparity input (thesis 2.4, 3.10): frames are rectified views of `rig` with disparity maps;
   /// the reference points and Jacobians are built in disparity space (disparity_space.hpp) with
-  /// the baseline scaled per pyramid level. Throws InputError for an invalid rig or options that
-  /// need depth maps (use_depth_residual, compensate_depth_time_offset).
+  /// the baseline scaled per pyramid level (rectified global-shutter views). Throws InputError
+  /// for an invalid rig or options that need depth maps
+  /// (terms.geometric: always).
   explicit DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options = {});
   ~DirectTracker();
   DirectTracker(const DirectTracker&) = delete;
@@ -148,7 +157,7 @@ class DirectTracker {
   struct Impl;  // buffers and state, opaque (direct_tracker.cpp)
 
  private:
-  TrackResult track_prepared(TimeNs t_ns, TimeNs depth_t_ns);
+  TrackResult track_prepared(TimeNs t_ns);
   // align_pair for either input kind (defined and instantiated in direct_tracker.cpp).
   template <typename Frame>
   TrackResult align_frames(const Frame& reference, const Frame& current,

@@ -1,199 +1,247 @@
-// Options of the direct RGB-D tracker (thesis 3.5-3.10 and its future work), with the
-// documented defaults; loadable from YAML and printable so that every run logs what it used.
+// Options of the direct RGB-D tracker (thesis 3.5-3.10 and its future work), in groups, with
+// the defaults; loadable from YAML (one map per group, under `tracker:`) and printable, so that
+// every run logs what it used. config/tracker_default.yaml lists them all; docs/odometry.md
+// ("Options") has the measurements behind the defaults.
 #pragma once
 
+#include <yaml-cpp/yaml.h>
+
+#include <cstdint>
 #include <filesystem>
 #include <string>
-
-#include <yaml-cpp/yaml.h>
+#include <string_view>
 
 #include "kestrel/image/pyramid.hpp"
 
 namespace kestrel::odometry {
 
-struct DirectTrackerOptions {
-  // --- pyramid (thesis 3.10) ---
-  int pyramid_levels = 5;        ///< levels incl. full resolution; each half the previous
-  int finest_level = 0;          ///< the last level iterated on (0 = full resolution)
-  image::PyramidFilter pyramid_filter = image::PyramidFilter::kBox;
+/// When the point-to-plane residual (Kerl et al., "Dense visual SLAM for RGB-D cameras", IROS
+/// 2013) joins the photometric one.
+enum class GeometricTerm : std::uint8_t {
+  kOff,       ///< never: photometric alignment alone
+  kFallback,  ///< only for the pairs the photometric alignment cannot settle (FallbackOptions)
+  kAlways,    ///< on every pair, jointly with the photometric residual; no fallback
+};
+std::string_view to_string(GeometricTerm term);
+/// "off", "fallback" or "always"; throws std::invalid_argument otherwise (options-table hook,
+/// io/option_fields.hpp).
+void parse_option(std::string_view name, GeometricTerm& term);
+
+/// Image and depth pyramids (thesis 3.10).
+struct PyramidOptions {
+  int levels = 5;        ///< levels incl. full resolution; each half the previous
+  int finest_level = 0;  ///< the last level iterated on (0 = full resolution)
+  /// Smoothing before each halving: a 2x2 box, or a 5x5 Gaussian first.
+  image::PyramidFilter filter = image::PyramidFilter::kBox;
   /// Depth pyramid: depths of a 2x2 block farther than this fraction behind the block's
   /// nearest depth belong to another surface and are not averaged in.
-  double depth_pyramid_max_relative_spread = 0.03;
+  double depth_max_relative_spread = 0.03;
 
-  // --- points (depth range: thesis 5.2 future work; selection: an option) ---
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("levels", levels);
+    v("finest_level", finest_level);
+    v("filter", filter);
+    v("depth_max_relative_spread", depth_max_relative_spread);
+  }
+};
+
+/// Which reference pixels become points (depth range: thesis 5.2 future work).
+struct SelectionOptions {
   double min_depth_m = 0.2;  ///< reference points nearer than this are dropped
   double max_depth_m = 6.0;  ///< ... and farther than this (Kinect depth noise grows as Z^2)
   /// Reference pixels need at least this gradient magnitude (intensity in [0, 1] per pixel).
   double min_gradient = 0.004;
   /// At most this many points per level, the ones of largest gradient (0 = no limit).
-  int max_points_per_level = 6000;
+  int max_points = 6000;
 
-  // --- robust weights (thesis 3.8, 3.10) ---
-  double tukey_c = 4.6851;        ///< Tukey bi-weight cut-off, in units of sigma (95 % eff.)
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("min_depth_m", min_depth_m);
+    v("max_depth_m", max_depth_m);
+    v("min_gradient", min_gradient);
+    v("max_points", max_points);
+  }
+};
+
+/// Robust weights: Tukey bi-weight on residuals scaled by their MAD sigma (thesis 3.8, 3.10).
+struct RobustOptions {
+  double tukey_c = 4.6851;            ///< cut-off in units of sigma (95 % efficiency)
   double sigma_freeze_change = 1e-6;  ///< sigma is frozen once it changes by less than this
-  /// Floor of the robust sigma (intensity units): below half an 8-bit grey level the MAD
+  /// Floor of the photometric sigma (intensity units): below half an 8-bit grey level the MAD
   /// estimates quantisation, not noise.
   double min_sigma = 0.5 / 255.0;
 
-  // --- illumination (thesis 3.9) ---
-  bool estimate_gain_bias = true;  ///< global gain and bias: 8 parameters instead of 6
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("tukey_c", tukey_c);
+    v("sigma_freeze_change", sigma_freeze_change);
+    v("min_sigma", min_sigma);
+  }
+};
 
-  // --- geometric residual (thesis 5.2 future work; Kerl et al., "Dense visual SLAM for
-  // RGB-D cameras", IROS 2013): point-to-plane distance between each reference point and
-  // the current frame's depth at its warped pixel, jointly with the photometric residual ---
-  bool use_depth_residual = false;
-  /// Floor of the geometric robust sigma (m): below ~the TUM PNG's quantisation it is noise
-  /// of the estimate, not of the sensor.
+/// The model's parameters and residuals beyond the photometric one.
+struct TermsOptions {
+  /// Global gain and bias of the current image (thesis 3.9): 8 parameters instead of 6.
+  bool gain_bias = true;
+  /// The point-to-plane residual: the distance of each reference point to the current frame's
+  /// depth surface at its warped pixel. Depth input only (a tracker fed by disparity has no
+  /// depth maps; `always` is an error there, `fallback` never fires).
+  GeometricTerm geometric = GeometricTerm::kFallback;
+  /// Floor of the geometric robust sigma (m): below ~the TUM PNG's quantisation it is noise of
+  /// the estimate, not of the sensor.
   double min_depth_sigma_m = 5e-4;
   /// ... nor below the sensor's depth noise sigma_z = depth_noise_per_m * z^2 at the level's
   /// median depth z: Kinect v1's 1.425e-3 /m (Khoshelham & Elberink, "Accuracy and resolution
   /// of Kinect depth data", Sensors 2012). 0 = no such floor.
   double depth_noise_per_m = 1.425e-3;
   /// A depth sample of the current frame is used only if its 2x2 neighbourhood spreads less
-  /// than this fraction of its depth (no interpolation across occlusion boundaries).
-  double depth_residual_max_relative_spread = 0.05;
+  /// than this fraction of its depth (no interpolation across occlusion boundaries); also the
+  /// normals' neighbourhood.
+  double depth_max_relative_spread = 0.05;
 
-  /// Unsynchronised RGB-D (Kinect v1: depth and colour up to ~15 ms apart): move the depth
-  /// maps to the colour image's time with the constant-velocity motion, so that the 3D points
-  /// and the geometric residual describe the scene as the image saw it.
-  /// Off by default: on fr1/rpy it made the rotation worse (docs/odometry.md, "Figures").
-  bool compensate_depth_time_offset = false;
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("gain_bias", gain_bias);
+    v("geometric", geometric);
+    v("min_depth_sigma_m", min_depth_sigma_m);
+    v("depth_noise_per_m", depth_noise_per_m);
+    v("depth_max_relative_spread", depth_max_relative_spread);
+  }
+};
 
-  // --- rolling shutter (Ringaby & Forssen, IJCV 2012; Kerl et al., ICCV 2015) ---
-  /// Readout time of a rolling-shutter colour camera (first to last row, s); 0 = global
-  /// shutter. Each frame is rectified to its middle row's time (image/rolling_shutter.hpp)
-  /// with the rotation rate of the constant-velocity prior, depth map alike. RGB-D input only.
-  /// Off by default: on fr1/rpy the gain depends on the value, which we could not measure for
-  /// that Kinect (docs/odometry.md, "Rolling shutter").
-  double rolling_shutter_readout_s = 0.0;
-
-  // --- convergence (thesis 3.10) ---
+/// Gauss-Newton per level, coarse to fine (thesis 3.10).
+struct SolverOptions {
   double update_norm_tolerance = 1e-6;    ///< stop a level when |delta theta| falls below
   double update_change_tolerance = 1e-8;  ///< ... or when it changes by less than this
   int max_iterations_finest = 300;        ///< on level 0
   int max_iterations_coarse = 50;         ///< on every other level
-  /// A step that raises the robust cost (at the sigma it was computed with) is undone and
-  /// ends the level: Gauss-Newton has reached the noise floor.
+  /// A step that raises the robust cost (at the sigma it was computed with) is undone and ends
+  /// the level: Gauss-Newton has reached the noise floor.
   bool stop_on_cost_increase = true;
-  /// Sample the current image bicubically (Catmull-Rom) on the finest level, bilinearly on the
-  /// others. Bilinear sampling's derivative jumps at integer pixel positions, where a still or
-  /// hovering camera's points land, and the level there ends at the kink short of the noise
-  /// floor; the C1 bicubic cost has none: only with it does a still camera stay within 0.1 mm
-  /// on every frame. On by default: it costs little per frame and leaves the rotation error on
-  /// fast motion within the run-to-run spread. The rolling-shutter rectifier resamples with the
-  /// matching kernel (image::Interpolation) (docs/odometry.md, "Still camera" and "bicubic
-  /// sampling on the finest level").
+  /// Sample the current image bicubically (Catmull-Rom) on the finest level; the coarser levels
+  /// are sampled bilinearly. Bilinear sampling's derivative jumps at integer pixel positions,
+  /// where a still or hovering camera's points land, and the level there ends at the kink short
+  /// of the noise floor; the C1 bicubic cost has none. The rolling-shutter rectifier resamples
+  /// with the matching kernel (image::Interpolation).
   bool bicubic_finest_level = true;
-  /// The same on the coarser levels (their cost has the same kink). Off by default: on fr1/rpy
-  /// it lowers the rotation error a little and raises the translation error, bicubic on only
-  /// some of the coarse levels moves the rotation error with no trend, and the disparity-space
-  /// (stereo) runs get much worse (docs/odometry.md, "Bicubic on the coarser levels too").
-  bool bicubic_coarse_levels = false;
 
-  // --- motion prior and keyframes (thesis 5.2 future work) ---
-  bool constant_velocity_prior = true;  ///< initial guess: the last motion, scaled by dt
-  /// Align to a keyframe (true) or always to the previous frame (false).
-  bool use_keyframes = true;
-  /// A new keyframe is taken after a frame whose overlap (fraction of the keyframe's points
-  /// that land inside it) falls below this, ...
-  double keyframe_min_overlap = 0.8;
-  double keyframe_max_rotation_deg = 5.0;      ///< ... or that is rotated by more, ...
-  double keyframe_max_translation_rel = 0.05;  ///< ... or moved by more x median depth.
-  /// When the alignment to the keyframe fails, try the previous frame (closer in time, and
-  /// blurred alike in a fast motion) before reporting a failure.
-  bool retry_previous_frame = false;
-  /// Geometric fallback (motion blur: depth blurs far less than the colour image): when the
-  /// photometric alignment fails with a high residual, or a finer pyramid level moves the
-  /// estimate farther than max_level_jump_px from the coarser level's, the pair is aligned again
-  /// with the point-to-plane residual joining the photometric one (use_depth_residual's model).
-  /// That result is accepted only by its own health checks: overlap, motion, the geometric
-  /// inlier ratio and point count, and the photometric sigma on the finest level where it passes
-  /// max_sigma (a blurred image agrees with the keyframe at the scales the blur left); a pair
-  /// without overlap, or whose images do not match on any level, still fails. A frame that
-  /// matches only on a coarser level (blurred) becomes the keyframe: the next frames, blurred
-  /// alike, align better to it. TrackResult::geometric_fallback marks it. Depth input only (a
-  /// tracker fed by disparity has no depth maps), and not with use_depth_residual (the
-  /// alignment has the geometric residual already).
-  bool geometric_fallback = true;
-  /// The fallback's rotation from the previous frame: for a frame the fallback tracked (to its
-  /// keyframe), the previous frame, blurred alike in a fast motion, is aligned to this frame as
-  /// the reference (its own gradients, points and normals, as OpenCV's RgbdICPOdometry takes the
-  /// current frame's) with the same joint residual and checks. That rotation replaces the
-  /// keyframe alignment's; the translation, which drifts less against the keyframe, is kept, and
-  /// so is the keyframe. On by default: on fast, blurred rotations it removes much of the
-  /// rotation error, for some more time per frame (docs/odometry.md, "The fallback's rotation
-  /// from the previous frame").
-  bool fallback_rotation_from_previous_frame = true;
-  /// ... iterated from this pyramid level down to finest_level (it starts from the keyframe
-  /// fallback's estimate): from 2 it is as accurate as from the coarsest level, for less time
-  /// per frame; from 1 it loses accuracy (docs/odometry.md, "The fallback's rotation from the
-  /// previous frame").
-  int fallback_rotation_coarsest_level = 2;
-  /// A level's estimate farther than this from the coarser level's (in pixels of the coarser
-  /// level: rotation f*|w| plus translation f*|t|/median depth) triggers the fallback.
-  double max_level_jump_px = 2.0;
-
-  // --- failure detection ---
-  double min_overlap = 0.3;       ///< fewer of the points inside the image: failure
-  double min_inlier_ratio = 0.3;  ///< fewer points with |r| < c sigma: failure
-  double max_sigma = 0.1;         ///< larger final robust sigma (intensity units): failure
-  int min_points = 100;           ///< fewer usable points on a level: failure
-  double max_translation_m = 0.5;   ///< larger motion to the reference: failure
-  double max_rotation_deg = 45.0;   ///< ditto
-
-  /// Throws InputError naming the first invalid field.
-  void validate() const;
-  /// Every field as "name: value" lines (valid YAML, loadable by from_yaml()).
-  [[nodiscard]] std::string to_yaml() const;
-  /// Fields present in `node` override the defaults; unknown keys are errors (typos).
-  /// `source` names the file in messages.
-  static DirectTrackerOptions from_yaml(const YAML::Node& node, const std::string& source);
-  /// Loads a file: the options may be at the top level or under a `tracker:` key.
-  static DirectTrackerOptions load(const std::filesystem::path& path);
-  /// The field table (name, member) that print and load derive from (io/option_fields.hpp).
   template <typename Visitor>
   void visit_fields(Visitor&& v) {
-    v("pyramid_levels", pyramid_levels);
-    v("finest_level", finest_level);
-    v("pyramid_filter", pyramid_filter);
-    v("depth_pyramid_max_relative_spread", depth_pyramid_max_relative_spread);
-    v("min_depth_m", min_depth_m);
-    v("max_depth_m", max_depth_m);
-    v("min_gradient", min_gradient);
-    v("max_points_per_level", max_points_per_level);
-    v("tukey_c", tukey_c);
-    v("sigma_freeze_change", sigma_freeze_change);
-    v("min_sigma", min_sigma);
-    v("estimate_gain_bias", estimate_gain_bias);
-    v("use_depth_residual", use_depth_residual);
-    v("min_depth_sigma_m", min_depth_sigma_m);
-    v("depth_noise_per_m", depth_noise_per_m);
-    v("depth_residual_max_relative_spread", depth_residual_max_relative_spread);
-    v("compensate_depth_time_offset", compensate_depth_time_offset);
-    v("rolling_shutter_readout_s", rolling_shutter_readout_s);
     v("update_norm_tolerance", update_norm_tolerance);
     v("update_change_tolerance", update_change_tolerance);
     v("max_iterations_finest", max_iterations_finest);
     v("max_iterations_coarse", max_iterations_coarse);
     v("stop_on_cost_increase", stop_on_cost_increase);
     v("bicubic_finest_level", bicubic_finest_level);
-    v("bicubic_coarse_levels", bicubic_coarse_levels);
+  }
+};
+
+/// Motion prior and keyframes (thesis 5.2 future work).
+struct KeyframeOptions {
+  bool constant_velocity_prior = true;  ///< initial guess: the last motion, scaled by dt
+  /// Align to a keyframe (true) or always to the previous frame (false).
+  bool enabled = true;
+  /// A new keyframe is taken after a frame whose overlap (fraction of the keyframe's points
+  /// that land inside it) falls below this, ...
+  double min_overlap = 0.8;
+  double max_rotation_deg = 5.0;      ///< ... or that is rotated by more, ...
+  double max_translation_rel = 0.05;  ///< ... or moved by more x median depth.
+
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
     v("constant_velocity_prior", constant_velocity_prior);
-    v("use_keyframes", use_keyframes);
-    v("keyframe_min_overlap", keyframe_min_overlap);
-    v("keyframe_max_rotation_deg", keyframe_max_rotation_deg);
-    v("keyframe_max_translation_rel", keyframe_max_translation_rel);
-    v("retry_previous_frame", retry_previous_frame);
-    v("geometric_fallback", geometric_fallback);
-    v("fallback_rotation_from_previous_frame", fallback_rotation_from_previous_frame);
-    v("fallback_rotation_coarsest_level", fallback_rotation_coarsest_level);
+    v("enabled", enabled);
+    v("min_overlap", min_overlap);
+    v("max_rotation_deg", max_rotation_deg);
+    v("max_translation_rel", max_translation_rel);
+  }
+};
+
+/// The geometric fallback (TermsOptions::geometric = fallback) for motion blur: depth blurs far
+/// less than the colour image. When the photometric alignment fails with a high residual, or a
+/// finer pyramid level moves the estimate farther than max_level_jump_px from the coarser
+/// level's, the pair is aligned again with the point-to-plane residual joining the photometric
+/// one. That result is accepted only by its own health checks: overlap, motion, the geometric
+/// inlier ratio and point count, and the photometric sigma on the finest level where it passes
+/// max_sigma (a blurred image agrees with the keyframe at the scales the blur left); a pair
+/// without overlap, or whose images do not match on any level, still fails. A frame that
+/// matches only on a coarser level (blurred) becomes the keyframe: the next frames, blurred
+/// alike, align better to it. TrackResult::geometric_fallback marks it.
+struct FallbackOptions {
+  /// The fallback's rotation from the previous frame: for a frame the fallback tracked (to its
+  /// keyframe), the previous frame, blurred alike in a fast motion, is aligned to this frame as
+  /// the reference (its own gradients, points and normals, as OpenCV's RgbdICPOdometry takes the
+  /// current frame's) with the same joint residual and checks. That rotation replaces the
+  /// keyframe alignment's; the translation, which drifts less against the keyframe, is kept, and
+  /// so is the keyframe. Costs some time per fallback frame.
+  bool rotation_from_previous_frame = true;
+  /// ... iterated from this pyramid level down to the finest level (it starts from the keyframe
+  /// fallback's estimate, a fraction of a pixel off there, so the coarsest levels add time, not
+  /// accuracy).
+  int rotation_coarsest_level = 2;
+  /// A level's estimate farther than this from the coarser level's (in pixels of the coarser
+  /// level: rotation f*|w| plus translation f*|t|/median depth) triggers the fallback.
+  double max_level_jump_px = 2.0;
+
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("rotation_from_previous_frame", rotation_from_previous_frame);
+    v("rotation_coarsest_level", rotation_coarsest_level);
     v("max_level_jump_px", max_level_jump_px);
+  }
+};
+
+/// Failure detection: a frame failing these is reported as a failure, never as a pose.
+struct HealthOptions {
+  double min_overlap = 0.3;         ///< fewer of the points inside the image: failure
+  double min_inlier_ratio = 0.3;    ///< fewer points with |r| < c sigma: failure
+  double max_sigma = 0.1;           ///< larger final robust sigma (intensity units): failure
+  int min_points = 100;             ///< fewer usable points on a level: failure
+  double max_translation_m = 0.5;   ///< larger motion to the reference: failure
+  double max_rotation_deg = 45.0;   ///< ditto
+
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
     v("min_overlap", min_overlap);
     v("min_inlier_ratio", min_inlier_ratio);
     v("max_sigma", max_sigma);
     v("min_points", min_points);
     v("max_translation_m", max_translation_m);
     v("max_rotation_deg", max_rotation_deg);
+  }
+};
+
+struct DirectTrackerOptions {
+  PyramidOptions pyramid;
+  SelectionOptions selection;
+  RobustOptions robust;
+  TermsOptions terms;
+  SolverOptions solver;
+  KeyframeOptions keyframes;
+  FallbackOptions fallback;
+  HealthOptions health;
+
+  /// Throws InputError naming the first invalid field ("group.field").
+  void validate() const;
+  /// Every field, one YAML map per group (valid YAML, loadable by from_yaml()).
+  [[nodiscard]] std::string to_yaml() const;
+  /// Fields present in `node` override the defaults; unknown keys are errors (typos, and the
+  /// flat keys of earlier versions). `source` names the file in messages.
+  static DirectTrackerOptions from_yaml(const YAML::Node& node, const std::string& source);
+  /// Loads a file: the options may be at the top level or under a `tracker:` key.
+  static DirectTrackerOptions load(const std::filesystem::path& path);
+  /// The field table (name, member) that print and load derive from (io/option_fields.hpp).
+  template <typename Visitor>
+  void visit_fields(Visitor&& v) {
+    v("pyramid", pyramid);
+    v("selection", selection);
+    v("robust", robust);
+    v("terms", terms);
+    v("solver", solver);
+    v("keyframes", keyframes);
+    v("fallback", fallback);
+    v("health", health);
   }
 };
 

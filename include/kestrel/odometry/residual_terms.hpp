@@ -117,25 +117,21 @@ class PhotometricTerm final : public ResidualTerm {
 /// whose sample is missing cost the Tukey maximum.
 class PointToPlaneTerm final : public ResidualTerm {
  public:
-  /// `depth`: the current depth level (m). `T_rgb_depth`: where the current depth map was
-  /// taken relative to the image (compensate_depth_time_offset), nullptr when simultaneous.
+  /// `depth`: the current depth level (m).
   PointToPlaneTerm(const ReferenceLevel& L, const cv::Mat& depth, float max_relative_spread,
-                   const SE3* T_rgb_depth, TermBuffers& buffers, float tukey_c,
-                   const ScaleRule& rule);
+                   TermBuffers& buffers, float tukey_c, const ScaleRule& rule);
   int evaluate(const Estimate& e) override;
   [[nodiscard]] double cost() const override;
   double weigh() override;
   void accumulate(Matrix8d& H, Vector8d& g) const override;
 
  private:
-  int evaluate_shifted(const SE3& T_cur_ref);
   /// What the cost kernel counts for the points without a normal (the Tukey maximum each).
   [[nodiscard]] double cost_without_normals() const;
 
   const ReferenceLevel& L_;
   const cv::Mat& depth_;
   const float max_spread_;
-  const SE3* T_rgb_depth_;
 };
 
 }  // namespace kestrel::odometry

@@ -123,8 +123,7 @@ class OdometryCore {
   void set_child_from_camera(const Eigen::Matrix4d& T_child_cam);
 
   /// image: CV_8UC3 BGR or CV_8UC1; depth_m: CV_32FC1 metres (0, NaN = none).
-  OdometryOutput track_rgbd(std::int64_t t_ns, const cv::Mat& image, const cv::Mat& depth_m,
-                            std::int64_t depth_t_ns = 0);
+  OdometryOutput track_rgbd(std::int64_t t_ns, const cv::Mat& image, const cv::Mat& depth_m);
   /// Raw (distorted, unrectified) left and right views, CV_8UC1 or CV_8UC3.
   OdometryOutput track_stereo(std::int64_t t_ns, const cv::Mat& left, const cv::Mat& right);
   /// One IMU sample (body frame). Held until a later frame is tracked (see max_imu_hold_s).
