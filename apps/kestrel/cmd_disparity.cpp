@@ -305,7 +305,7 @@ void add_disparity_command(CLI::App& app) {
                   "semi-global matcher options YAML (--matcher sgm; flags given override it)");
   cmd->add_option("--paths", args->sgm.paths, "--matcher sgm: directions summed, 4 or 8")
       ->capture_default_str()
-      ->check(CLI::IsMember({4, 8}));
+      ->check(whole_of({4, 8}, "4 or 8 directions"));
   cmd->add_option("--speckle", args->sgm.speckle_size,
                   "--matcher sgm: remove regions of at most this many pixels, 0 = off")
       ->capture_default_str()

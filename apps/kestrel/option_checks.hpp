@@ -8,10 +8,12 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace kestrel::cli {
 
@@ -57,6 +59,22 @@ inline CLI::Validator whole_in(long long lo, long long hi, const std::string& wo
           return "'" + text + "' is not a whole number; expected " + words;
         }
         if (error != std::errc() || v < lo || v > hi || (odd && v % 2 == 0)) {
+          return "got " + text + "; expected " + words;
+        }
+        return {};
+      },
+      words, kRangeCheck);
+}
+
+/// A whole number from a short list ("4" or "8"), written as one; read as whole_in reads.
+inline CLI::Validator whole_of(std::vector<long long> values, const std::string& words) {
+  const auto [lo, hi] = std::minmax_element(values.begin(), values.end());
+  const CLI::Validator range = whole_in(*lo, *hi, words);
+  return CLI::Validator(
+      [range, values, words](std::string& text) -> std::string {
+        std::string error = range(text);
+        if (!error.empty()) return error;
+        if (std::find(values.begin(), values.end(), std::stoll(text)) == values.end()) {
           return "got " + text + "; expected " + words;
         }
         return {};
