@@ -732,7 +732,7 @@ struct AlignRunner {
       }
       const SE3 T_level_start = est.T_cur_ref;
       const LevelTerms level_terms(m, o, l, terms.geometric);
-      LevelSolver solver(level_terms.list(), SolverRules::for_level(o, l), l, L.count,
+      LevelSolver solver(level_terms.list(), SolverRules::for_level(o, l, L), l, L.count,
                          m.abs_residual.data(), est, res);
       const LevelEnd end = solver.run();
       if (end == LevelEnd::kFailed) {

@@ -72,9 +72,11 @@ void DirectTrackerOptions::validate() const {
   }
   finite_pos("terms.depth_max_relative_spread", terms.depth_max_relative_spread);
 
-  if (!(solver.update_norm_tolerance >= 0.0)) fail("solver.update_norm_tolerance", "must be >= 0");
-  if (!(solver.update_change_tolerance >= 0.0)) {
-    fail("solver.update_change_tolerance", "must be >= 0");
+  if (!(std::isfinite(solver.step_tolerance_px) && solver.step_tolerance_px >= 0.0)) {
+    fail("solver.step_tolerance_px", "must be >= 0 and finite");
+  }
+  if (!(std::isfinite(solver.step_change_tolerance_px) && solver.step_change_tolerance_px >= 0.0)) {
+    fail("solver.step_change_tolerance_px", "must be >= 0 and finite");
   }
   if (solver.max_iterations_finest < 1) fail("solver.max_iterations_finest", "must be >= 1");
   if (solver.max_iterations_coarse < 1) fail("solver.max_iterations_coarse", "must be >= 1");

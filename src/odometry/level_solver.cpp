@@ -7,13 +7,23 @@
 
 namespace kestrel::odometry {
 
-SolverRules SolverRules::for_level(const DirectTrackerOptions& o, int level) {
-  return {level == 0 ? o.solver.max_iterations_finest : o.solver.max_iterations_coarse,
-          o.health.min_points,
-          o.solver.stop_on_cost_increase,
-          o.solver.update_norm_tolerance,
-          o.solver.update_change_tolerance,
-          o.terms.gain_bias};
+SolverRules SolverRules::for_level(const DirectTrackerOptions& o, int level,
+                                   const ReferenceLevel& L) {
+  SolverRules r;
+  r.max_iterations = level == 0 ? o.solver.max_iterations_finest : o.solver.max_iterations_coarse;
+  r.min_points = o.health.min_points;
+  r.stop_on_cost_increase = o.solver.stop_on_cost_increase;
+  r.step_tolerance_px = o.solver.step_tolerance_px;
+  r.step_change_tolerance_px = o.solver.step_change_tolerance_px;
+  r.estimate_gain_bias = o.terms.gain_bias;
+  r.focal_px = 0.5 * static_cast<double>(L.fx + L.fy);
+  // A level without depth (disparity input before its first frame) counts a metre.
+  r.median_depth_m = L.median_depth > 0.0 ? L.median_depth : 1.0;
+  return r;
+}
+
+double SolverRules::step_px(const Vector8d& d) const {
+  return focal_px * (d.segment<3>(3).norm() + d.head<3>().norm() / median_depth_m);
 }
 
 LevelEnd LevelSolver::run() {
@@ -68,8 +78,7 @@ LevelSolver::StepCheck LevelSolver::check_step() {
   double cost = 0.0;
   for (const ResidualTerm* t : terms_) cost += t->cost();
   if (!(cost > prev_cost_)) return StepCheck::kAccepted;  // a NaN cost is not a rise
-  if (halvings_ < 3 &&
-      last_step_.head(rules_.params()).norm() > 10.0 * rules_.update_norm_tolerance) {
+  if (halvings_ < 3 && rules_.step_px(last_step_) > 10.0 * rules_.step_tolerance_px) {
     ++halvings_;
     last_step_ *= 0.5;
     apply_step(last_step_);
@@ -116,10 +125,10 @@ bool LevelSolver::solve_and_step(double cost) {
 
 // Converged when the step is tiny or no longer changes (it oscillates at the noise floor).
 bool LevelSolver::step_converged() {
-  const double step = last_step_.head(rules_.params()).norm();
-  if (step < rules_.update_norm_tolerance ||
+  const double step = rules_.step_px(last_step_);
+  if (step < rules_.step_tolerance_px ||
       (prev_step_norm_ >= 0.0 &&
-       std::fabs(step - prev_step_norm_) < rules_.update_change_tolerance)) {
+       std::fabs(step - prev_step_norm_) < rules_.step_change_tolerance_px)) {
     return true;
   }
   prev_step_norm_ = step;

@@ -335,7 +335,7 @@ StillCameraRun run_still_camera(const DirectTrackerOptions& options) {
 // The target with the defaults (bicubic sampling on the finest level): bilinear
 // sampling's cost has a kink at integer pixel positions, exactly where a still camera's points
 // land, and the finest level would end there short of the noise floor; the C1 bicubic cost has
-// none (measured 100 of 100 frames, max 0.089 mm, rms 0.036 mm against the covariance's 0.042).
+// none (measured 100 of 100 frames, max 0.088 mm, rms 0.037 mm against the covariance's 0.042).
 TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
   const StillCameraRun s = run_still_camera(DirectTrackerOptions{});
   RecordProperty("max_translation_error_m", std::to_string(s.max_t_err));
@@ -348,13 +348,14 @@ TEST(DirectTracker, StillCameraWithSensorNoiseStaysAtIdentity) {
 }
 
 // REGRESSION GUARD for bilinear sampling on every level (bicubic_finest_level false),
-// not the target, which it misses: measured max 0.113 mm, 4 of 100 frames above 0.1 mm (the
-// kink above).
+// not the target, which it misses: measured max 0.143 mm, 4 of 100 frames above 0.1 mm
+// (the kink above, where the 0.01 px step tolerance ends the level a little earlier than the
+// old twist tolerance did).
 TEST(DirectTracker, StillCameraWithBilinearSamplingStaysNearIdentity) {
   DirectTrackerOptions o;
   o.solver.bicubic_finest_level = false;
   const StillCameraRun s = run_still_camera(o);
-  EXPECT_LT(s.max_t_err, 1.3e-4);
+  EXPECT_LT(s.max_t_err, 1.6e-4);
   EXPECT_GE(s.within_target, 90);  // measured 96
   EXPECT_LT(s.max_r_err_deg, 0.01);
   EXPECT_GT(s.rms, 0.5 * s.predicted_rms);

@@ -112,8 +112,13 @@ struct TermsOptions {
 
 /// Gauss-Newton per level, coarse to fine (thesis 3.10).
 struct SolverOptions {
-  double update_norm_tolerance = 1e-6;    ///< stop a level when |delta theta| falls below
-  double update_change_tolerance = 1e-8;  ///< ... or when it changes by less than this
+  /// A level ends when a step moves the points by less than this, in pixels of that level
+  /// (rotation f |dw| plus translation f |dv| / median depth): a hundredth of a pixel is far
+  /// below what the images resolve, and the same on every level, unlike a bound on the twist.
+  double step_tolerance_px = 0.01;
+  /// ... or when the step's size changes by less than this from one iteration to the next (it
+  /// oscillates at the noise floor), in the same pixels.
+  double step_change_tolerance_px = 1e-4;
   int max_iterations_finest = 300;        ///< on level 0
   int max_iterations_coarse = 50;         ///< on every other level
   /// A step that raises the robust cost (at the sigma it was computed with) is undone and ends
@@ -128,8 +133,8 @@ struct SolverOptions {
 
   template <typename Visitor>
   void visit_fields(Visitor&& v) {
-    v("update_norm_tolerance", update_norm_tolerance);
-    v("update_change_tolerance", update_change_tolerance);
+    v("step_tolerance_px", step_tolerance_px);
+    v("step_change_tolerance_px", step_change_tolerance_px);
     v("max_iterations_finest", max_iterations_finest);
     v("max_iterations_coarse", max_iterations_coarse);
     v("stop_on_cost_increase", stop_on_cost_increase);

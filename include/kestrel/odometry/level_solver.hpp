@@ -16,12 +16,18 @@ struct SolverRules {
   int max_iterations = 50;
   int min_points = 100;  ///< fewer valid primary residuals: no overlap
   bool stop_on_cost_increase = true;
-  double update_norm_tolerance = 1e-6;
-  double update_change_tolerance = 1e-8;
-  bool estimate_gain_bias = true;  ///< 8 parameters (pose, gain, bias), else the pose alone
+  double step_tolerance_px = 0.01;         ///< SolverOptions::step_tolerance_px
+  double step_change_tolerance_px = 1e-4;  ///< SolverOptions::step_change_tolerance_px
+  bool estimate_gain_bias = true;          ///< 8 parameters (pose, gain, bias), else the pose alone
+  /// The level's focal length (px) and median depth (m): they turn a step into pixels.
+  double focal_px = 500.0;
+  double median_depth_m = 1.0;
 
-  static SolverRules for_level(const DirectTrackerOptions& o, int level);
+  static SolverRules for_level(const DirectTrackerOptions& o, int level, const ReferenceLevel& L);
   [[nodiscard]] int params() const { return estimate_gain_bias ? 8 : 6; }
+  /// How far a step d = [v, w, ...] moves the points, in pixels of the level: f |w| + f |v| / z
+  /// at the median depth z (the gain and bias move none).
+  [[nodiscard]] double step_px(const Vector8d& d) const;
 };
 
 enum class LevelEnd {
