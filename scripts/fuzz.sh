@@ -3,14 +3,14 @@
 # and UBSan, starting from the seeds scripts/fuzz_seeds.sh cuts from ../shared/data. Exits
 # non-zero on any finding (crash, sanitizer report, leak, timeout, out-of-memory, or an exception
 # other than the errors Kestrel reports to users: fuzz/fuzz_input.hpp).
-#   KESTREL_FUZZ_SECONDS  time per target (default 60)
+#   KESTREL_FUZZ_SECONDS  time per target (default 30)
 #   KESTREL_FUZZ_JOBS     targets run at once (default 2: the CI machine's cores)
 # Corpora grow in build/fuzz/corpus/<target> (kept between runs); a finding's input is written to
 # build/fuzz/findings/<target>/ and its log to build/fuzz/logs/<target>.log.
 # Reproduce one: build/fuzz/fuzz/fuzz_<target> build/fuzz/findings/<target>/crash-...
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds="${KESTREL_FUZZ_SECONDS:-60}"
+seconds="${KESTREL_FUZZ_SECONDS:-30}"
 jobs="${KESTREL_FUZZ_JOBS:-2}"
 start=$(date +%s)
 scripts/build.sh fuzz

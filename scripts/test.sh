@@ -23,8 +23,8 @@ if [ "${KESTREL_ARM64:-quick}" != 0 ]; then
   scripts/check_arm64.sh "--${KESTREL_ARM64:-quick}"
   echo "arm64: $(( $(date +%s) - arm64_start )) s (sysroot, cross build and tests)"
 fi
-if [ "${KESTREL_FUZZ_SECONDS:-60}" != 0 ]; then
-  echo "=== fuzz: ${KESTREL_FUZZ_SECONDS:-60} s per target ==="
+if [ "${KESTREL_FUZZ_SECONDS:-30}" != 0 ]; then
+  echo "=== fuzz: ${KESTREL_FUZZ_SECONDS:-30} s per target ==="
   fuzz_start=$(date +%s)
   scripts/fuzz.sh
   echo "fuzz: $(( $(date +%s) - fuzz_start )) s (build included)"
