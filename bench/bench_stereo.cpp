@@ -2,6 +2,7 @@
 // StereoSGBM on the Middlebury pairs (bad-pixel rate, > 1 px or missing, over pixels with known
 // truth), the speed per 752x480 EuRoC pair (64 disparities, block 9, rectification excluded)
 // and the fill rate over the EuRoC V1_01 part. Usage: kestrel_bench_stereo [DATA_DIR] [--quick]
+// [--speed]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -60,10 +61,11 @@ cv::Ptr<cv::StereoSGBM> make_sgbm(int num) {
   return cv::StereoSGBM::create(0, num, kBlock, 8 * kBlock * kBlock, 32 * kBlock * kBlock);
 }
 
-BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost, bool filters) {
+BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost, bool filters,
+                                    int block = kBlock) {
   BlockMatcherOptions o;
   o.max_disparity = num;
-  o.block_size = kBlock;
+  o.block_size = block;
   o.cost = cost;
   if (!filters) {
     o.lr_max_diff = -1;
@@ -102,15 +104,16 @@ void print_time(const char* name, std::pair<double, double> t) {
 
 void print_usage(std::FILE* to) {
   std::fprintf(to,
-               "usage: kestrel_bench_stereo [DATA_DIR] [--quick]\n"
+               "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]\n"
                "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy} and\n"
                "            euroc/V1_01_easy_part1 (default: %s)\n"
                "  --quick   5 EuRoC pairs and 5 timing repeats instead of all pairs and 30\n"
+               "  --speed   Kestrel's speed rows only (no Middlebury, no peers, no fill rate)\n"
                "  --help    this text\n",
                KESTREL_DEFAULT_DATA_DIR);
 }
 
-int run(const fs::path& data, bool quick) {
+int run(const fs::path& data, bool quick, bool speed_only) {
   cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
   using kestrel::sensor::MatchingCost;
 
@@ -148,11 +151,18 @@ int run(const fs::path& data, bool quick) {
   }
   std::vector<kestrel::lab::MiddleburyPair> pairs;
   for (const char* name : {"tsukuba", "venus", "teddy"}) {
+    if (speed_only) break;
     pairs.push_back(kestrel::lab::load_middlebury_pair(data / "middlebury" / name));
   }
-  std::printf("Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity) / fill %%\n", kBlock);
-  std::printf("%-22s %16s %16s %16s\n", "matcher", "tsukuba", "venus", "teddy");
+  if (!speed_only) {
+    std::printf(
+        "Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity) / fill "
+        "%%\n",
+        kBlock);
+    std::printf("%-22s %16s %16s %16s\n", "matcher", "tsukuba", "venus", "teddy");
+  }
   for (const auto& peer : peers) {
+    if (speed_only) break;
     std::printf("%-22s", peer.name.c_str());
     for (const auto& p : pairs) {
       const int num = (p.max_disparity + 1 + 15) / 16 * 16;  // OpenCV needs multiples of 16
@@ -166,7 +176,8 @@ int run(const fs::path& data, bool quick) {
   // --- EuRoC: speed per rectified pair and fill rate over the part.
   const fs::path euroc = data / "euroc" / "V1_01_easy_part1";
   if (!fs::exists(euroc)) {
-    std::printf("EuRoC data not found at %s: speed and fill rate skipped\n", euroc.string().c_str());
+    std::printf("EuRoC data not found at %s: speed and fill rate skipped\n",
+                euroc.string().c_str());
     return 0;
   }
   kestrel::io::EurocSequence seq(euroc);
@@ -177,7 +188,8 @@ int run(const fs::path& data, bool quick) {
               rig.f, rig.baseline_m, rig.width, rig.height, seq.stereo_size());
   const int num = 64;
   std::vector<std::pair<cv::Mat, cv::Mat>> rectified;
-  const std::size_t n_pairs = quick ? std::min<std::size_t>(5, seq.stereo_size()) : seq.stereo_size();
+  const std::size_t n_pairs =
+      quick ? std::min<std::size_t>(5, seq.stereo_size()) : seq.stereo_size();
   for (std::size_t i = 0; i < n_pairs; ++i) {
     const auto s = seq.load_stereo(i);
     cv::Mat l, r;
@@ -198,16 +210,23 @@ int run(const fs::path& data, bool quick) {
   print_time("kestrel sad", time_ms([&] { sad.match(l0, r0, d); }, repeats));
   print_time("kestrel sad dense", time_ms([&] { sad_dense.match(l0, r0, d); }, repeats));
   print_time("kestrel census", time_ms([&] { census.match(l0, r0, d); }, repeats));
+  // The general scan (more than 64 lanes): 128 disparities, block 15.
+  BlockMatcher sad_wide(kestrel_options(128, MatchingCost::kSad, true, 15));
+  print_time("kestrel sad 128 blk 15", time_ms([&] { sad_wide.match(l0, r0, d); }, repeats));
+  if (speed_only) return 0;
   print_time("opencv StereoBM", time_ms([&] { bm->compute(l0, r0, d16); }, repeats));
-  print_time("opencv StereoSGBM", time_ms([&] { sgbm->compute(l0, r0, d16); }, std::max(3, repeats / 5)));
+  print_time("opencv StereoSGBM",
+             time_ms([&] { sgbm->compute(l0, r0, d16); }, std::max(3, repeats / 5)));
 
-  std::printf("fill rate over %zu rectified pairs (share of all pixels with a disparity):\n", rectified.size());
+  std::printf("fill rate over %zu rectified pairs (share of all pixels with a disparity):\n",
+              rectified.size());
   for (const auto& peer : peers) {
     double filled = 0.0, total = 0.0;
     for (const auto& [l, r] : rectified) {
       const cv::Mat disp = peer.run(l, r, num);
       for (int y = 0; y < disp.rows; ++y) {
-        for (int x = 0; x < disp.cols; ++x) filled += std::isfinite(disp.at<float>(y, x)) ? 1.0 : 0.0;
+        for (int x = 0; x < disp.cols; ++x)
+          filled += std::isfinite(disp.at<float>(y, x)) ? 1.0 : 0.0;
       }
       total += double(disp.total());
     }
@@ -220,11 +239,13 @@ int run(const fs::path& data, bool quick) {
 
 int main(int argc, char** argv) {
   fs::path data = KESTREL_DEFAULT_DATA_DIR;
-  bool quick = false, have_data = false;
+  bool quick = false, speed_only = false, have_data = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--quick") {
       quick = true;
+    } else if (arg == "--speed") {
+      speed_only = true;
     } else if (arg == "--help" || arg == "-h") {
       print_usage(stdout);
       return 0;
@@ -243,7 +264,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    return run(data, quick);
+    return run(data, quick, speed_only);
   } catch (const kestrel::InputError& e) {
     std::fprintf(stderr, "kestrel_bench_stereo: error: %s\n", e.what());
     return 1;
