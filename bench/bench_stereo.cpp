@@ -3,10 +3,13 @@
 // truth), the speed per 752x480 EuRoC pair (64 disparities, block 9, rectification excluded)
 // and the fill rate over the EuRoC V1_01 part. Usage: kestrel_bench_stereo [DATA_DIR] [--quick]
 // [--speed]
+#include <hwy/targets.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <exception>
 #include <filesystem>
@@ -14,6 +17,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -73,6 +77,20 @@ BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost,
     o.texture_threshold = 0.0;
   }
   return o;
+}
+
+// KESTREL_BENCH_SIMD=<target> (e.g. AVX2) runs the block matcher's kernels on that SIMD target
+// instead of the CPU's best, to compare targets in one binary.
+void choose_simd_target() {
+  const char* wanted = std::getenv("KESTREL_BENCH_SIMD");
+  if (wanted == nullptr) return;
+  for (const std::int64_t t : kestrel::sensor::block_matching_simd_targets()) {
+    if (std::string(hwy::TargetName(t)) == wanted) {
+      hwy::SetSupportedTargetsForTest(t);
+      return;
+    }
+  }
+  throw std::runtime_error(std::string("KESTREL_BENCH_SIMD: no target ") + wanted);
 }
 
 double thread_cpu_ms() {
@@ -205,8 +223,10 @@ int run(const fs::path& data, bool quick, bool speed_only) {
   auto bm = make_bm(num);
   auto sgbm = make_sgbm(num);
   cv::Mat d16;
-  std::printf("speed, %dx%d, %d disparities, block %d, one thread (median of %d):\n", l0.cols,
-              l0.rows, num, kBlock, repeats);
+  choose_simd_target();
+  std::printf("speed, %dx%d, %d disparities, block %d, one thread (median of %d), SIMD %s:\n",
+              l0.cols, l0.rows, num, kBlock, repeats,
+              kestrel::sensor::block_matching_simd_target());
   print_time("kestrel sad", time_ms([&] { sad.match(l0, r0, d); }, repeats));
   print_time("kestrel sad dense", time_ms([&] { sad_dense.match(l0, r0, d); }, repeats));
   print_time("kestrel census", time_ms([&] { census.match(l0, r0, d); }, repeats));
