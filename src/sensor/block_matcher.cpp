@@ -650,7 +650,8 @@ void BlockMatcher::match_row(int y, float* out, MatchStats& stats) {
                              options_.cost == MatchingCost::kCensus,
                              d_min_valid_,
                              d_max_valid_,
-                             texture_min_ > 0};
+                             texture_min_ > 0,
+                             options_.max_pixel_cost() < 128};
     kernels::match_row_fast(scan, f, out, stats);
     return;
   }

@@ -284,8 +284,9 @@ void AddSadRowFast(std::uint16_t* column_sums, const std::uint8_t* left_row,
 }
 
 // How the fast row gets its column sums: already slid (census, first row), or slid by the
-// row itself from the SAD rows.
-enum class Slide { kNone, kSad };
+// row itself from the SAD rows, with per-pixel costs below 128 (kSadSmall: the x-Sobel
+// prefilter) or up to 255 (kSad).
+enum class Slide { kNone, kSadSmall, kSad };
 
 // The fast scan's state along one row. The structs' fields are copied in, as locals: the
 // per-pixel stores could alias the structs' fields, which would make the compiler reload them
@@ -318,9 +319,28 @@ HWY_INLINE std::uint16_t* fast_ring_at(const Scan& t, int x) {
   return t.ring + static_cast<std::size_t>(x & (kRingSlots - 1)) * Scan::kSlot + kRingGuard;
 }
 
-// Column c slid down one row (kSlide), in registers and stored back: 2^kBits (|l - r| of the
-// new row - |l - r| of the old one), widened by interleaving with zeros, which gives the
-// storage order directly.
+// 2^kBits (|l - r| of the new row - |l - r| of the old one) for the lanes of a byte vector,
+// widened to the storage order by interleaving with zeros (the low and the high uint16
+// vector). Costs below 128: the difference fits int8, and shifting it from the high byte
+// down scales and sign-extends it in one step.
+template <int kBits, Slide kSlide>
+HWY_INLINE std::pair<V16, V16> fast_scaled_change(V8 a_new, V8 a_old) {
+  const D16 d16;
+  const V8 zero = hn::Zero(D8());
+  if constexpr (kSlide == Slide::kSadSmall) {
+    const DI16 di16;
+    const V8 change = hn::Sub(a_new, a_old);
+    const auto lo = hn::ShiftRight<8 - kBits>(hn::BitCast(di16, hn::ZipLower(d16, zero, change)));
+    const auto hi = hn::ShiftRight<8 - kBits>(hn::BitCast(di16, hn::ZipUpper(d16, zero, change)));
+    return {hn::BitCast(d16, lo), hn::BitCast(d16, hi)};
+  } else {
+    const V16 lo = hn::Sub(hn::ZipLower(d16, a_new, zero), hn::ZipLower(d16, a_old, zero));
+    const V16 hi = hn::Sub(hn::ZipUpper(d16, a_new, zero), hn::ZipUpper(d16, a_old, zero));
+    return {hn::ShiftLeft<kBits>(lo), hn::ShiftLeft<kBits>(hi)};
+  }
+}
+
+// Column c slid down one row (kSlide), in registers and stored back.
 template <int kLanes, Slide kSlide>
 HWY_INLINE void fast_column(const FastScan<kLanes, kSlide>& t, int c, V16* out) {
   using Scan = FastScan<kLanes, kSlide>;
@@ -330,15 +350,13 @@ HWY_INLINE void fast_column(const FastScan<kLanes, kSlide>& t, int c, V16* out) 
     for (int i = 0; i < Scan::NV; ++i) out[i] = hn::LoadU(d16, col + kV * i);
   } else {
     const D8 d8;
-    const V8 zero = hn::Zero(d8);
     const V8 left_new = hn::Set(d8, t.left_new[c]), left_old = hn::Set(d8, t.left_old[c]);
     for (int i = 0; i < Scan::NV; i += 2) {
       const V8 a_new = abs_diff_u8(left_new, hn::LoadU(d8, t.right_new + c + kV * i));
       const V8 a_old = abs_diff_u8(left_old, hn::LoadU(d8, t.right_old + c + kV * i));
-      const V16 lo = hn::Sub(hn::ZipLower(d16, a_new, zero), hn::ZipLower(d16, a_old, zero));
-      const V16 hi = hn::Sub(hn::ZipUpper(d16, a_new, zero), hn::ZipUpper(d16, a_old, zero));
-      const V16 s0 = hn::Add(hn::LoadU(d16, col + kV * i), hn::ShiftLeft<Scan::kBits>(lo));
-      const V16 s1 = hn::Add(hn::LoadU(d16, col + kV * (i + 1)), hn::ShiftLeft<Scan::kBits>(hi));
+      const auto [lo, hi] = fast_scaled_change<Scan::kBits, kSlide>(a_new, a_old);
+      const V16 s0 = hn::Add(hn::LoadU(d16, col + kV * i), lo);
+      const V16 s1 = hn::Add(hn::LoadU(d16, col + kV * (i + 1)), hi);
       hn::StoreU(s0, d16, col + kV * i);
       hn::StoreU(s1, d16, col + kV * (i + 1));
       out[i] = s0;
@@ -797,6 +815,8 @@ void match_row_fast_lanes(const RowScan& scan, const FastRow& fast, float* out, 
   static constexpr auto kFinishes = finish_row_table<kBits>(std::make_index_sequence<16>{});
   if (scan.left_new == nullptr) {
     scan_row_fast<kLanes, Slide::kNone>(scan, fast);
+  } else if (fast.small_costs) {
+    scan_row_fast<kLanes, Slide::kSadSmall>(scan, fast);
   } else {
     scan_row_fast<kLanes, Slide::kSad>(scan, fast);
   }

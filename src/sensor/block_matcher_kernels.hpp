@@ -88,7 +88,8 @@ struct FastRow {
   int lr_max_diff;
   bool subpixel, census;
   float d_min, d_max;
-  bool texture;  // texture_min > 0
+  bool texture;      // texture_min > 0
+  bool small_costs;  // every per-pixel cost is below 128 (max_pixel_cost)
 };
 
 /// uint16 lanes of a vector of the target the dispatch takes (8 or 16; 1 on a scalar-only
