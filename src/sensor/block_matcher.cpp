@@ -302,13 +302,64 @@ inline std::uint32_t gradient_at(const std::uint8_t* row, int c, int r, int w) {
       std::abs(int{row[std::min(x + 1, w - 1)]} - int{row[std::max(x - 1, 0)]}));
 }
 
+/// The census signatures of row y of `img` into the padded row `out` (stride columns, pad of
+/// them left of pixel 0, replicated borders), for a census window of radius cr.
+void census_row(const cv::Mat& img, int y, int cr, std::uint64_t* out, int stride, int pad) {
+  const int w = img.cols, h = img.rows;
+  // Columns whose window lies inside the row: one pass per neighbour, in the signature's
+  // bit order, without clamps (a loop that vectorises); the others one at a time.
+  const int lo = std::min(stride, pad + cr), hi = std::max(lo, std::min(stride, pad + w - cr));
+  std::fill(out + lo, out + hi, std::uint64_t{0});
+  const std::uint8_t* centres = img.ptr<std::uint8_t>(y) + (lo - pad);
+  for (int dy = -cr; dy <= cr; ++dy) {
+    const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1)) + (lo - pad);
+    for (int dx = -cr; dx <= cr; ++dx) {
+      if (dx == 0 && dy == 0) continue;
+      for (int i = 0; i < hi - lo; ++i) {
+        out[lo + i] = (out[lo + i] << 1) | static_cast<std::uint64_t>(row[i + dx] < centres[i]);
+      }
+    }
+  }
+  for (int c = 0; c < stride; ++c) {
+    if (c == lo) c = hi;  // the interior is done
+    if (c >= stride) break;
+    const int x = clampi(c - pad, 0, w - 1);
+    const int centre = img.ptr<std::uint8_t>(y)[x];
+    std::uint64_t bits = 0;
+    for (int dy = -cr; dy <= cr; ++dy) {
+      const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1));
+      for (int dx = -cr; dx <= cr; ++dx) {
+        if (dx == 0 && dy == 0) continue;
+        bits = (bits << 1) | static_cast<std::uint64_t>(row[clampi(x + dx, 0, w - 1)] < centre);
+      }
+    }
+    out[c] = bits;
+  }
+}
+
+/// |I(x+1) - I(x-1)| of each row of `img` per padded column (x = c - rad, clamped), `cols`
+/// columns a row.
+void gradient_rows(const cv::Mat& img, int rad, int cols, std::uint8_t* gradient) {
+  const int w = img.cols;
+  for (int y = 0; y < img.rows; ++y) {
+    const std::uint8_t* row = img.ptr<std::uint8_t>(y);
+    std::uint8_t* g = gradient + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
+    // Columns of pixels 1..w-2 need no clamps (a loop that vectorises); the rest do.
+    const int lo = std::min(rad + 1, cols), hi = std::max(lo, rad + w - 1);
+    for (int c = 0; c < lo; ++c) g[c] = static_cast<std::uint8_t>(gradient_at(row, c, rad, w));
+    for (int c = lo; c < hi; ++c) {
+      g[c] = static_cast<std::uint8_t>(std::abs(int{row[c - rad + 1]} - int{row[c - rad - 1]}));
+    }
+    for (int c = hi; c < cols; ++c) g[c] = static_cast<std::uint8_t>(gradient_at(row, c, rad, w));
+  }
+}
+
 }  // namespace
 
 void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
   const cv::Mat l = to_gray8(left, gray_l_, "left");
   const cv::Mat r = to_gray8(right, gray_r_, "right");
   const int w = width_, h = height_, rad = radius_;
-  const auto pixel = [](const cv::Mat& img, int y, int x) { return img.ptr<std::uint8_t>(y)[x]; };
   if (options_.cost == MatchingCost::kSad) {
     // Prefiltered value per image pixel, then replicated into the padded rows.
     const int cap = options_.prefilter_cap;
@@ -356,65 +407,19 @@ void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
     }
   } else {
     const int cr = options_.census_window / 2;
-    const auto census_row = [&](const cv::Mat& img, int y, std::uint64_t* out, int stride,
-                                int pad) {
-      // Columns whose window lies inside the row: one pass per neighbour, in the signature's
-      // bit order, without clamps (a loop that vectorises); the others one at a time.
-      const int lo = std::min(stride, pad + cr), hi = std::max(lo, std::min(stride, pad + w - cr));
-      std::fill(out + lo, out + hi, std::uint64_t{0});
-      const std::uint8_t* centres = img.ptr<std::uint8_t>(y) + (lo - pad);
-      for (int dy = -cr; dy <= cr; ++dy) {
-        const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1)) + (lo - pad);
-        for (int dx = -cr; dx <= cr; ++dx) {
-          if (dx == 0 && dy == 0) continue;
-          for (int i = 0; i < hi - lo; ++i) {
-            out[lo + i] = (out[lo + i] << 1) | static_cast<std::uint64_t>(row[i + dx] < centres[i]);
-          }
-        }
-      }
-      for (int c = 0; c < stride; ++c) {
-        if (c == lo) c = hi;  // the interior is done
-        if (c >= stride) break;
-        const int x = clampi(c - pad, 0, w - 1);
-        const int centre = pixel(img, y, x);
-        std::uint64_t bits = 0;
-        for (int dy = -cr; dy <= cr; ++dy) {
-          const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1));
-          for (int dx = -cr; dx <= cr; ++dx) {
-            if (dx == 0 && dy == 0) continue;
-            bits = (bits << 1) | static_cast<std::uint64_t>(row[clampi(x + dx, 0, w - 1)] < centre);
-          }
-        }
-        out[c] = bits;
-      }
-    };
     for (int y = 0; y < h; ++y) {
       census_row(
-          l, y,
+          l, y, cr,
           census_l_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_l_),
           row_stride_l_, rad);
       census_row(
-          r, y,
+          r, y, cr,
           census_r_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_),
           row_stride_r_, pad_left_);
     }
   }
   // Texture: |I(x+1) - I(x-1)| of the raw left image per padded column (x = c - r, clamped).
-  if (texture_min_ > 0) {
-    const int cols = row_stride_l_;
-    for (int y = 0; y < h; ++y) {
-      const std::uint8_t* row = l.ptr<std::uint8_t>(y);
-      std::uint8_t* g =
-          gradient_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(cols);
-      // Columns of pixels 1..w-2 need no clamps (a loop that vectorises); the rest do.
-      const int lo = std::min(rad + 1, cols), hi = std::max(lo, rad + w - 1);
-      for (int c = 0; c < lo; ++c) g[c] = static_cast<std::uint8_t>(gradient_at(row, c, rad, w));
-      for (int c = lo; c < hi; ++c) {
-        g[c] = static_cast<std::uint8_t>(std::abs(int{row[c - rad + 1]} - int{row[c - rad - 1]}));
-      }
-      for (int c = hi; c < cols; ++c) g[c] = static_cast<std::uint8_t>(gradient_at(row, c, rad, w));
-    }
-  }
+  if (texture_min_ > 0) gradient_rows(l, rad, row_stride_l_, gradient_.data());
 }
 
 bool BlockMatcher::simd() const { return vector_lanes_ >= kMinVectorLanes; }
@@ -423,18 +428,18 @@ bool BlockMatcher::fast_row() const { return fast_ && simd() && width_ <= kField
 
 int BlockMatcher::column_scale() const { return fast_row() ? (lanes_ == 32 ? 4 : 8) : 1; }
 
-std::size_t BlockMatcher::storage_position(int lane) const {
-  return static_cast<std::size_t>(fast_row() ? kernels::fast_lane_position(lane, vector_lanes_)
-                                             : lane);
-}
+int BlockMatcher::storage_order() const { return fast_row() ? vector_lanes_ : 0; }
 
 void BlockMatcher::init_column_sums() {
   const int r = radius_, h = height_;
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
-  // The fast row's column sums are scaled and permuted in runs of 8 lanes (storage_position).
+  // The fast row's column sums are scaled and permuted in runs of 8 lanes (storage_order).
   const int scale = column_scale();
-  const auto run_at = [this](int lane) { return storage_position(lane); };
+  // A copy, not this->: the stores through uint16 pointers could alias the matcher's fields.
+  const auto run_at = [order = storage_order()](int lane) {
+    return static_cast<std::size_t>(kernels::fast_lane_position(lane, order));
+  };
   std::fill(column_sums_.begin(), column_sums_.end(), std::uint16_t{0});
   std::fill(texture_columns_.begin(), texture_columns_.end(), 0U);
   for (int k = -r; k <= r; ++k) {
@@ -497,7 +502,10 @@ void BlockMatcher::advance_column_sums(int y) {
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
   const int scale = column_scale();
-  const auto run_at = [this](int lane) { return storage_position(lane); };
+  // A copy, not this->: the stores through uint16 pointers could alias the matcher's fields.
+  const auto run_at = [order = storage_order()](int lane) {
+    return static_cast<std::size_t>(kernels::fast_lane_position(lane, order));
+  };
   const int k_new = y + r;
   const int y_new = std::min(k_new, h - 1);
   const int y_old = std::max(y - r - 1, 0);

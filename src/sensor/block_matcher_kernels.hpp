@@ -50,6 +50,7 @@ inline constexpr int kFieldStride = 8192;  // the fast row handles widths up to 
 /// order that is the identity on 128-bit vectors and swaps bits 3 and 4 of the lane on
 /// 256-bit ones. For both it is its own inverse: the lane at a position and the position of
 /// a lane are the same function.
+/// Any other vector_lanes (0 included) gives the identity: the lane order.
 constexpr int fast_lane_position(int lane, int vector_lanes) {
   if (vector_lanes != 16) return lane;
   return (lane & ~0x18) | ((lane & 8) << 1) | ((lane & 16) >> 1);

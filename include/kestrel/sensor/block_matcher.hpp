@@ -169,13 +169,13 @@ class BlockMatcher {
   std::vector<std::int32_t> row_disp_;              // winning lane per u, -1 none
   std::vector<std::uint8_t> row_state_;
   // Fast row (SIMD, 32 or 64 lanes): its column sums are scaled by column_scale() and stored
-  // in its lane order (storage_position, which depends on the vector width); box costs of the
+  // in its lane order (storage_order, which depends on the vector width); box costs of the
   // last pixels, the per-pixel fields the scan leaves for the finish, the winner's neighbour
   // masks and the slot position of each lane.
-  [[nodiscard]] bool simd() const;         // SIMD kernels: a target with vectors, not portable
-  [[nodiscard]] bool fast_row() const;     // fast_, simd(), width within its limit
-  [[nodiscard]] int column_scale() const;  // 2^tag bits on the fast row, else 1
-  [[nodiscard]] std::size_t storage_position(int lane) const;  // of a lane in column sums
+  [[nodiscard]] bool simd() const;          // SIMD kernels: a target with vectors, not portable
+  [[nodiscard]] bool fast_row() const;      // fast_, simd(), width within its limit
+  [[nodiscard]] int column_scale() const;   // 2^tag bits on the fast row, else 1
+  [[nodiscard]] int storage_order() const;  // fast_lane_position's vector_lanes (0: lane order)
   std::vector<std::uint16_t> volume_ring_, row_fields_, near_masks_;
   std::vector<std::int16_t> lane_positions_;
 };
