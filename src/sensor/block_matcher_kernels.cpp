@@ -427,7 +427,8 @@ HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide>& t, int x, cons
   for (int i = 1; i < Scan::NV; ++i) m = hn::Min(m, v[i]);
   const auto fold = fold_to_128(m);
   const auto least = hn::MinOfLanes(d8l, fold);
-  const auto j = static_cast<std::uint32_t>(hn::FindFirstTrue(d8l, hn::Eq(fold, least)));
+  // Some position holds the minimum: no test for none.
+  const auto j = static_cast<std::uint32_t>(hn::FindKnownFirstTrue(d8l, hn::Eq(fold, least)));
   const std::uint32_t tagged = hn::GetLane(least);
   t.fields[kFieldCost * kFieldStride + x] = static_cast<std::uint16_t>(tagged);
   t.fields[kFieldBest * kFieldStride + x] =
