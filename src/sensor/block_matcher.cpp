@@ -502,10 +502,6 @@ void BlockMatcher::advance_column_sums(int y) {
   const int cols = row_stride_l_, lanes = lanes_;
   const int block = 2 * r + 1;
   const int scale = column_scale();
-  // A copy, not this->: the stores through uint16 pointers could alias the matcher's fields.
-  const auto run_at = [order = storage_order()](int lane) {
-    return static_cast<std::size_t>(kernels::fast_lane_position(lane, order));
-  };
   const int k_new = y + r;
   const int y_new = std::min(k_new, h - 1);
   const int y_old = std::max(y - r - 1, 0);
@@ -527,26 +523,8 @@ void BlockMatcher::advance_column_sums(int y) {
     const int slot = k_new % block;  // the slot of row y-r-1 (same residue)
     std::uint8_t* ring = cost_ring_.data() + static_cast<std::size_t>(slot) *
                                                  static_cast<std::size_t>(cols) * lane_stride;
-    // The Hamming distances first (scalar popcnt), then the column and ring updates in loops
-    // that vectorise.
-    std::array<std::uint8_t, 1024> distances{};  // lanes <= 1024 (validate)
-    for (int c = 0; c < cols; ++c) {
-      std::uint16_t* cs = align64(column_sums_.data()) + static_cast<std::size_t>(c) * lane_stride;
-      std::uint8_t* rc = ring + static_cast<std::size_t>(c) * lane_stride;
-      const std::uint64_t lc = lrow[c];
-      for (int i = 0; i < lanes; ++i) {
-        distances[static_cast<std::size_t>(i)] =
-            static_cast<std::uint8_t>(std::popcount(lc ^ rrow[c + i]));
-      }
-      for (int i0 = 0; i0 < lanes; i0 += 8) {
-        std::uint16_t* sum = cs + run_at(i0);
-        for (int i = 0; i < 8; ++i) {
-          sum[i] = static_cast<std::uint16_t>(
-              sum[i] + scale * (distances[static_cast<std::size_t>(i0 + i)] - rc[i0 + i]));
-        }
-      }
-      std::memcpy(rc, distances.data(), lane_stride);
-    }
+    kernels::census_slide_row(align64(column_sums_.data()), ring, lrow, rrow, cols, lanes, scale,
+                              storage_order());
   }
 }
 

@@ -105,6 +105,13 @@ void add_sad_row_fast(std::uint16_t* column_sums, const std::uint8_t* left_row,
 /// The fast row (32 or 64 lanes, width <= kFieldStride): the scan, then the checks and the
 /// fit; the disparities of the row and its counts, as finish_row after scan_row_generic.
 void match_row_fast(const RowScan& scan, const FastRow& fast, float* out, MatchStats& stats);
+/// Census column sums slid down one row: += scale (the incoming row's Hamming distances -
+/// the outgoing row's, kept in `ring_row`, which then holds the incoming ones), the sums in
+/// the storage order fast_lane_position(., storage_order) (0: lane order). The same
+/// arithmetic on every target (a loop the compiler vectorises, with the target's popcount).
+void census_slide_row(std::uint16_t* column_sums, std::uint8_t* ring_row,
+                      const std::uint64_t* left_row, const std::uint64_t* right_row, int cols,
+                      int lanes, int scale, int storage_order);
 /// The name of the target the dispatch takes.
 const char* target_name();
 
