@@ -201,7 +201,7 @@ BlockMatcher::BlockMatcher(BlockMatcherOptions options, std::optional<RectifiedS
   }
   radius_ = options_.block_size / 2;
   const int n = options_.max_disparity - options_.min_disparity;
-  lanes_ = (n + 31) / 32 * 32;  // whole AVX2 registers of uint8 per-pixel costs
+  lanes_ = (n + 31) / 32 * 32;  // whole 256-bit vectors of uint8 per-pixel costs
   pad_left_ = lanes_ - 1 + options_.min_disparity + radius_;
   const int block = options_.block_size;
   texture_min_ =
