@@ -299,6 +299,9 @@ struct FastScan {
   static constexpr int NV = kLanes / kV;
   static constexpr int kBits = kLanes == 32 ? 2 : 3;
   static constexpr int kSlot = L + 2 * kRingGuard;  // guard lanes, the lanes, guard lanes
+  // User-provided, so that it is compiled with the target's attributes: GCC compiles an
+  // implicit one without them and then cannot inline the vectors' constructors on NEON.
+  FastScan() {}  // NOLINT(modernize-use-equals-default)
   int w, r, num, d_top, lr, lane_floor;
   bool lr_check, uniqueness;
   std::uint16_t* cs;
@@ -325,8 +328,14 @@ HWY_INLINE std::uint16_t* fast_ring_at(const Scan& t, int x) {
 // widened to the storage order by interleaving with zeros (the low and the high uint16
 // vector). Costs below 128: the difference fits int8, and shifting it from the high byte
 // down scales and sign-extends it in one step.
+// (Not a std::pair: its constructors, compiled without the target's attributes, cannot inline
+// the vectors' on NEON.)
+struct LowHigh {
+  V16 lo, hi;
+};
+
 template <int kBits, Slide kSlide>
-HWY_INLINE std::pair<V16, V16> fast_scaled_change(V8 a_new, V8 a_old) {
+HWY_INLINE LowHigh fast_scaled_change(V8 a_new, V8 a_old) {
   const D16 d16;
   const V8 zero = hn::Zero(D8());
   if constexpr (kSlide == Slide::kSadSmall) {
