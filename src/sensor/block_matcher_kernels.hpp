@@ -93,8 +93,8 @@ struct FastRow {
   bool small_costs;  // every per-pixel cost is below 128 (max_pixel_cost)
 };
 
-/// uint16 lanes of a vector of the target the dispatch takes (8 or 16; 1 on a scalar-only
-/// build, where no kernel applies and the scalar reference runs).
+/// uint16 lanes of a vector of the target the dispatch takes (8 or 16; 1 on Highway's
+/// scalar fallback, where no kernel applies and the matcher runs the scalar reference).
 int vector_lanes();
 /// The general scan (lanes a multiple of 32, at most kMaxSimdLanes): what scan_row_generic
 /// leaves, the same bits.
