@@ -1,8 +1,9 @@
-// Stereo peers in one run, one thread: Kestrel's block matcher beside OpenCV StereoBM and
-// StereoSGBM on the Middlebury pairs (bad-pixel rate, > 1 px or missing, over pixels with known
-// truth), the speed per 752x480 EuRoC pair (64 disparities, block 9, rectification excluded)
-// and the fill rate over the EuRoC V1_01 part. Usage: kestrel_bench_stereo [DATA_DIR] [--quick]
-// [--speed]
+// Stereo peers in one run, one thread: Kestrel's block matcher and semi-global matcher beside
+// OpenCV StereoBM and StereoSGBM on the Middlebury pairs (2001/2003: tsukuba, venus, teddy; and
+// the 2014 training scenes, scored on their non-occluded pixels): bad-pixel rate (> 1 px or
+// missing, over pixels with known truth) and fill; the speed per 752x480 EuRoC pair (64
+// disparities, block 9, rectification excluded) and the fill rate over the EuRoC V1_01 part.
+// Usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]
 #include <hwy/targets.h>
 
 #include <algorithm>
@@ -13,10 +14,13 @@
 #include <ctime>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -24,13 +28,17 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/stopwatch.hpp"
 #include "kestrel/io/euroc.hpp"
+#include "kestrel/io/pfm.hpp"
 #include "kestrel/lab/stereo_evaluation.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
+#include "kestrel/sensor/sgm_matcher.hpp"
 
 namespace fs = std::filesystem;
 using kestrel::sensor::BlockMatcher;
 using kestrel::sensor::BlockMatcherOptions;
+using kestrel::sensor::SgmMatcher;
+using kestrel::sensor::SgmOptions;
 
 namespace {
 
@@ -55,6 +63,63 @@ cv::Mat from_fixed(const cv::Mat& d16) {
   return out;
 }
 
+/// One scored pair: its views, the true disparity (0 or non-finite = unknown), the pixels
+/// scored (empty: all with a known truth) and the disparities searched (a multiple of 16, as
+/// OpenCV needs).
+struct ScoredPair {
+  std::string name;
+  cv::Mat left, right, truth, mask;
+  int num_disparities = 0;
+};
+
+int multiple_of_16(int n) { return (n + 15) / 16 * 16; }
+
+/// A Middlebury 2014 scene folder: im0/im1, disp0GT.pfm (inf = unknown), mask0nocc.png (255 =
+/// non-occluded: the pixels scored), ndisp from calib.txt (Scharstein et al., GCPR 2014).
+ScoredPair load_middlebury2014(const fs::path& folder) {
+  ScoredPair p;
+  p.name = folder.filename().string();
+  p.left = cv::imread((folder / "im0.png").string(), cv::IMREAD_GRAYSCALE);
+  p.right = cv::imread((folder / "im1.png").string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat mask = cv::imread((folder / "mask0nocc.png").string(), cv::IMREAD_GRAYSCALE);
+  if (p.left.empty() || p.right.empty() || mask.empty()) {
+    throw kestrel::InputError(folder.string() + ": im0.png, im1.png or mask0nocc.png missing");
+  }
+  p.truth = kestrel::io::read_pfm(folder / "disp0GT.pfm");
+  p.mask = mask == 255;
+  std::ifstream calib(folder / "calib.txt");
+  std::string line;
+  int ndisp = 0;
+  while (std::getline(calib, line)) {
+    const auto at = line.find("ndisp=");  // lines may start with blanks
+    if (at != std::string::npos) ndisp = std::stoi(line.substr(at + 6));
+  }
+  if (ndisp <= 0) throw kestrel::InputError(folder.string() + "/calib.txt: no ndisp");
+  p.num_disparities = multiple_of_16(ndisp);
+  return p;
+}
+
+std::vector<ScoredPair> load_scored_pairs(const fs::path& data) {
+  std::vector<ScoredPair> pairs;
+  for (const char* name : {"tsukuba", "venus", "teddy"}) {
+    auto m = kestrel::lab::load_middlebury_pair(data / "middlebury" / name);
+    pairs.push_back({m.name, gray(m.left), gray(m.right), m.truth_px, cv::Mat(),
+                     multiple_of_16(m.max_disparity + 1)});
+  }
+  const fs::path m2014 = data / "middlebury2014";
+  if (!fs::is_directory(m2014)) {
+    std::printf("Middlebury 2014 not found at %s: its scenes skipped\n", m2014.string().c_str());
+    return pairs;
+  }
+  std::vector<fs::path> scenes;
+  for (const auto& e : fs::directory_iterator(m2014)) {
+    if (e.is_directory()) scenes.push_back(e.path());
+  }
+  std::sort(scenes.begin(), scenes.end());
+  for (const auto& scene : scenes) pairs.push_back(load_middlebury2014(scene));
+  return pairs;
+}
+
 struct Peer {
   std::string name;
   std::function<cv::Mat(const cv::Mat&, const cv::Mat&, int)> run;  // grey L, R, num disp
@@ -76,6 +141,15 @@ BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost,
     o.uniqueness_ratio = 0;
     o.texture_threshold = 0.0;
   }
+  return o;
+}
+
+/// The semi-global matcher with its defaults over `num` disparities (one set for every scene),
+/// or with its left-right check on (tolerance 1 px).
+SgmOptions sgm_options(int num, bool checked = false) {
+  SgmOptions o;
+  o.max_disparity = num;
+  if (checked) o.lr_max_diff = 1;
   return o;
 }
 
@@ -123,18 +197,17 @@ void print_time(const char* name, std::pair<double, double> t) {
 void print_usage(std::FILE* to) {
   std::fprintf(to,
                "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]\n"
-               "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy} and\n"
-               "            euroc/V1_01_easy_part1 (default: %s)\n"
+               "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy}, middlebury2014/<scene>\n"
+               "            and euroc/V1_01_easy_part1 (default: %s)\n"
                "  --quick   5 EuRoC pairs and 5 timing repeats instead of all pairs and 30\n"
                "  --speed   Kestrel's speed rows only (no Middlebury, no peers, no fill rate)\n"
                "  --help    this text\n",
                KESTREL_DEFAULT_DATA_DIR);
 }
 
-int run(const fs::path& data, bool quick, bool speed_only) {
-  cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
+/// Every matcher of the comparison, each run with its options for a given disparity count.
+std::vector<Peer> make_peers() {
   using kestrel::sensor::MatchingCost;
-
   std::vector<Peer> peers;
   peers.push_back({"kestrel sad", [](const cv::Mat& l, const cv::Mat& r, int n) {
                      BlockMatcher m(kestrel_options(n, MatchingCost::kSad, true));
@@ -152,6 +225,14 @@ int run(const fs::path& data, bool quick, bool speed_only) {
                      BlockMatcher m(kestrel_options(n, MatchingCost::kCensus, false));
                      return m.match(l, r);
                    }});
+  peers.push_back({"kestrel sgm", [](const cv::Mat& l, const cv::Mat& r, int n) {
+                     SgmMatcher m(sgm_options(n));
+                     return m.match(l, r);
+                   }});
+  peers.push_back({"kestrel sgm lr", [](const cv::Mat& l, const cv::Mat& r, int n) {
+                     SgmMatcher m(sgm_options(n, true));
+                     return m.match(l, r);
+                   }});
   peers.push_back({"opencv StereoBM", [](const cv::Mat& l, const cv::Mat& r, int n) {
                      cv::Mat d;
                      make_bm(n)->compute(l, r, d);
@@ -162,34 +243,41 @@ int run(const fs::path& data, bool quick, bool speed_only) {
                      make_sgbm(n)->compute(l, r, d);
                      return from_fixed(d);
                    }});
+  return peers;
+}
 
+/// The bad-pixel table: a row per Middlebury scene, a column per peer.
+void print_middlebury_table(const std::vector<Peer>& peers, const fs::path& data) {
   // --- Middlebury: bad pixels (> 1 px or missing) over pixels with known truth.
   if (!fs::is_directory(data)) {
     throw kestrel::InputError("DATA_DIR '" + data.string() + "' is not a folder");
   }
-  std::vector<kestrel::lab::MiddleburyPair> pairs;
-  for (const char* name : {"tsukuba", "venus", "teddy"}) {
-    if (speed_only) break;
-    pairs.push_back(kestrel::lab::load_middlebury_pair(data / "middlebury" / name));
-  }
-  if (!speed_only) {
-    std::printf(
-        "Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity) / fill "
-        "%%\n",
-        kBlock);
-    std::printf("%-22s %16s %16s %16s\n", "matcher", "tsukuba", "venus", "teddy");
-  }
-  for (const auto& peer : peers) {
-    if (speed_only) break;
-    std::printf("%-22s", peer.name.c_str());
-    for (const auto& p : pairs) {
-      const int num = (p.max_disparity + 1 + 15) / 16 * 16;  // OpenCV needs multiples of 16
-      const cv::Mat d = peer.run(gray(p.left), gray(p.right), num);
-      const auto s = kestrel::lab::score_disparity(d, p.truth_px, 1.0);
-      std::printf("   %6.1f / %5.1f", 100.0 * s.bad_rate(), 100.0 * s.fill_rate());
+  const std::vector<ScoredPair> pairs = load_scored_pairs(data);
+  std::printf(
+      "Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity, "
+      "2014: non-occluded pixels) / fill %%; disparities searched in brackets\n",
+      kBlock);
+  std::printf("%-18s", "scene");
+  for (const auto& peer : peers) std::printf(" %20s", peer.name.c_str());
+  std::printf("\n");
+  for (const auto& p : pairs) {
+    std::printf("%-12s (%3d)", p.name.c_str(), p.num_disparities);
+    for (const auto& peer : peers) {
+      const cv::Mat d = peer.run(p.left, p.right, p.num_disparities);
+      const auto s = kestrel::lab::score_disparity(d, p.truth, 1.0, p.mask);
+      std::printf("        %5.1f / %5.1f", 100.0 * s.bad_rate(), 100.0 * s.fill_rate());
     }
     std::printf("\n");
+    std::fflush(stdout);
   }
+}
+
+int run(const fs::path& data, bool quick, bool speed_only) {
+  cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
+  using kestrel::sensor::MatchingCost;
+
+  const std::vector<Peer> peers = make_peers();
+  if (!speed_only) print_middlebury_table(peers, data);
 
   // --- EuRoC: speed per rectified pair and fill rate over the part.
   const fs::path euroc = data / "euroc" / "V1_01_easy_part1";
@@ -219,6 +307,8 @@ int run(const fs::path& data, bool quick, bool speed_only) {
   BlockMatcher sad(kestrel_options(num, MatchingCost::kSad, true));
   BlockMatcher sad_dense(kestrel_options(num, MatchingCost::kSad, false));
   BlockMatcher census(kestrel_options(num, MatchingCost::kCensus, true));
+  SgmMatcher sgm(sgm_options(num));
+  SgmMatcher sgm_lr(sgm_options(num, true));
   cv::Mat d;
   auto bm = make_bm(num);
   auto sgbm = make_sgbm(num);
@@ -233,6 +323,9 @@ int run(const fs::path& data, bool quick, bool speed_only) {
   // The general scan (more than 64 lanes): 128 disparities, block 15.
   BlockMatcher sad_wide(kestrel_options(128, MatchingCost::kSad, true, 15));
   print_time("kestrel sad 128 blk 15", time_ms([&] { sad_wide.match(l0, r0, d); }, repeats));
+  print_time("kestrel sgm", time_ms([&] { sgm.match(l0, r0, d); }, repeats));
+  print_time("kestrel sgm lr", time_ms([&] { sgm_lr.match(l0, r0, d); }, repeats));
+  std::printf("  (kestrel sgm kernels: %s)\n", SgmMatcher::simd_target());
   if (speed_only) return 0;
   print_time("opencv StereoBM", time_ms([&] { bm->compute(l0, r0, d16); }, repeats));
   print_time("opencv StereoSGBM",

@@ -73,24 +73,25 @@ struct Projector {
     const VF Y = row(T.r10, T.r11, T.r12, T.t1);
     const VF Z = row(T.r20, T.r21, T.r22, T.t2);
     const VF inv_z = hn::Div(hn::Set(df, 1.0F), Z);
-    Projected p;
-    p.u = hn::MulAdd(hn::Mul(hn::Set(df, level.fx), X), inv_z, hn::Set(df, level.cx));
-    p.v = hn::MulAdd(hn::Mul(hn::Set(df, level.fy), Y), inv_z, hn::Set(df, level.cy));
+    VF u = hn::MulAdd(hn::Mul(hn::Set(df, level.fx), X), inv_z, hn::Set(df, level.cx));
+    VF v = hn::MulAdd(hn::Mul(hn::Set(df, level.fy), Y), inv_z, hn::Set(df, level.cy));
     const VF zero = hn::Zero(df);
     const VF umax = hn::Set(df, static_cast<float>(level.width - 1));
     const VF vmax = hn::Set(df, static_cast<float>(level.height - 1));
-    MF m = hn::And(hn::Gt(Z, hn::Set(df, 1e-3F)), hn::Ge(p.u, zero));
-    m = hn::And(m, hn::Lt(p.u, umax));
-    m = hn::And(m, hn::Ge(p.v, zero));
-    m = hn::And(m, hn::Lt(p.v, vmax));
-    p.inside = m;
-    p.u = hn::IfThenElseZero(m, p.u);
-    p.v = hn::IfThenElseZero(m, p.v);
-    p.x0 = hn::ConvertTo(di, p.u);  // truncation: u, v >= 0 here
-    p.y0 = hn::ConvertTo(di, p.v);
-    p.ax = hn::Sub(p.u, hn::ConvertTo(df, p.x0));
-    p.ay = hn::Sub(p.v, hn::ConvertTo(df, p.y0));
-    return p;
+    MF m = hn::And(hn::Gt(Z, hn::Set(df, 1e-3F)), hn::Ge(u, zero));
+    m = hn::And(m, hn::Lt(u, umax));
+    m = hn::And(m, hn::Ge(v, zero));
+    m = hn::And(m, hn::Lt(v, vmax));
+    u = hn::IfThenElseZero(m, u);
+    v = hn::IfThenElseZero(m, v);
+    const VI x0 = hn::ConvertTo(di, u);  // truncation: u, v >= 0 here
+    const VI y0 = hn::ConvertTo(di, v);
+    // Aggregate-initialised, never default-constructed: GCC on AArch64 compiles Projected's
+    // implicit default constructor without the NEON target's `#pragma GCC target "+crypto"`
+    // (Highway 1.0.3), and it then may not inline Vec128's always_inline constructor
+    // ("target specific option mismatch").
+    return Projected{u, v, hn::Sub(u, hn::ConvertTo(df, x0)), hn::Sub(v, hn::ConvertTo(df, y0)),
+                     x0, y0, m};
   }
 };
 

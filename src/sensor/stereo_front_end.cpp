@@ -1,4 +1,4 @@
-// The stereo front end: rectification -> block matching -> disparity (and depth).
+// The stereo front end: rectification -> stereo matching -> disparity (and depth).
 #include "kestrel/sensor/stereo_front_end.hpp"
 
 #include <chrono>
@@ -12,11 +12,18 @@ namespace kestrel::sensor {
 
 namespace {
 
-BlockMatcher make_matcher(const BlockMatcherOptions& options, const RectifiedStereo& rig) {
+StereoMatcher make_matcher(const StereoFrontEndOptions& options, const RectifiedStereo& rig) {
+  const BlockMatcherOptions& block = options.matcher;
+  const StereoMatcherKind kind = options.kind.value_or(
+      block.cost == MatchingCost::kCensus ? StereoMatcherKind::kCensus : StereoMatcherKind::kSad);
+  SgmOptions sgm = options.sgm;
+  sgm.min_disparity = block.min_disparity;
+  sgm.max_disparity = block.max_disparity;
   try {
-    return BlockMatcher(options, rig);
+    return StereoMatcher(kind, block, sgm, rig);
   } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("block matcher: ") + e.what());
+    throw InputError(std::string("stereo matcher (") + std::string(to_string(kind)) +
+                     "): " + e.what());
   }
 }
 
@@ -27,10 +34,10 @@ StereoFrontEnd::StereoFrontEnd(const StereoCalibration& calibration,
     : options_(options),
       rectifier_(std::in_place, calibration, options.rectify),
       rig_(rectifier_->rig()),
-      matcher_(make_matcher(options.matcher, rig_)) {}
+      matcher_(make_matcher(options, rig_)) {}
 
 StereoFrontEnd::StereoFrontEnd(const RectifiedStereo& rig, const StereoFrontEndOptions& options)
-    : options_(options), rig_(rig), matcher_(make_matcher(options.matcher, rig)) {}
+    : options_(options), rig_(rig), matcher_(make_matcher(options, rig)) {}
 
 Eigen::Matrix3d StereoFrontEnd::R_rect_left() const {
   return rectifier_ ? rectifier_->R_rect_left() : Eigen::Matrix3d::Identity();

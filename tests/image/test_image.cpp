@@ -3,12 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/interpolation.hpp"
 #include "kestrel/image/pyramid.hpp"
+#include "kestrel/image/sharpness.hpp"
 #include "kestrel/image/undistortion.hpp"
 
 namespace kestrel::image {
@@ -75,6 +77,33 @@ TEST(Gradient, CentralDifferencesOfARampAreItsSlope) {
   EXPECT_NEAR(gy.at<float>(5, 7), -0.2F, 1e-5F);
   EXPECT_EQ(gx.at<float>(0, 7), 0.0F);
   EXPECT_EQ(gy.at<float>(5, 19), 0.0F);
+}
+
+TEST(Sharpness, LaplacianVarianceHasItsAnalyticValueAndFallsWithBlur) {
+  // A linear ramp has no curvature: its Laplacian is 0 everywhere.
+  EXPECT_NEAR(laplacian_variance(ramp(40, 30, 0.01F, -0.02F, 0.5F)), 0.0, 1e-10);
+  // A checkerboard of +-a: every neighbour is -I, so the Laplacian is -8 I = +-8a, of variance
+  // 64 a^2.
+  const double a = 0.25;
+  cv::Mat board(30, 40, CV_32FC1);
+  for (int y = 0; y < board.rows; ++y) {
+    for (int x = 0; x < board.cols; ++x) board.at<float>(y, x) = static_cast<float>((x + y) % 2 == 0 ? a : -a);
+  }
+  EXPECT_NEAR(laplacian_variance(board), 64.0 * a * a, 1e-6);
+  // Blur (a horizontal box, as a sideways motion leaves) lowers it; the ratio of two frames is
+  // what the tracker reads.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> grey(0.0F, 1.0F);
+  cv::Mat noise(60, 80, CV_32FC1);
+  for (int y = 0; y < noise.rows; ++y) {
+    for (int x = 0; x < noise.cols; ++x) noise.at<float>(y, x) = grey(rng);
+  }
+  cv::Mat smooth, blurred;
+  cv::GaussianBlur(noise, smooth, cv::Size(5, 5), 1.0);
+  cv::blur(smooth, blurred, cv::Size(7, 1));
+  EXPECT_LT(laplacian_variance(blurred), 0.5 * laplacian_variance(smooth));
+  EXPECT_THROW((void)laplacian_variance(cv::Mat(2, 2, CV_32FC1)), std::invalid_argument);
+  EXPECT_THROW((void)laplacian_variance(cv::Mat(5, 5, CV_8UC1)), std::invalid_argument);
 }
 
 TEST(Interpolation, BilinearIsExactOnLinearFunctionsAndCheckedAtBorders) {

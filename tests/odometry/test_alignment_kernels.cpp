@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <opencv2/core.hpp>
 #include <random>
@@ -38,8 +39,19 @@ TEST(AlignmentKernels, RunOnTheBestSimdTargetOfTheCpu) {
   const std::vector<std::int64_t> targets = simd_targets();
   ASSERT_FALSE(targets.empty());
   EXPECT_STREQ(simd_target(), hwy::TargetName(targets.front()));
+  // The targets the other tests run, in the log (scripts/check_arm64.sh shows this line).
+  std::string names;
+  for (const std::int64_t t : targets) {
+    names += std::string(names.empty() ? "" : " ") + hwy::TargetName(t);
+  }
+  std::printf("SIMD targets (best first): %s; dispatched: %s\n", names.c_str(), simd_target());
 #if defined(__x86_64__)
   EXPECT_GE(targets.size(), 2U) << "x86-64 has at least SSSE3 and the scalar fallback";
+#elif defined(__aarch64__)
+  // Every AArch64 CPU has NEON (Advanced SIMD), and SVE is not compiled (cmake/KestrelSimd.cmake):
+  // NEON is the best target, and the portable fallback comes after it.
+  EXPECT_STREQ(simd_target(), "NEON");
+  EXPECT_GE(targets.size(), 2U) << "AArch64 has NEON and the scalar fallback";
 #endif
 }
 

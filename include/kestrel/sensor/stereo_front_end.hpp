@@ -11,11 +11,20 @@
 #include "kestrel/geometry/pinhole_camera.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
+#include "kestrel/sensor/sgm_matcher.hpp"
+#include "kestrel/sensor/stereo_matcher.hpp"
 
 namespace kestrel::sensor {
 
 struct StereoFrontEndOptions {
+  /// The block matcher's options (sad, census). Its disparity range is also the semi-global
+  /// matcher's, so that switching `kind` keeps the range a configuration set.
   BlockMatcherOptions matcher;
+  /// Which matcher: nullopt = the block matcher with `matcher.cost` (the default, and what
+  /// configurations written before the choice existed mean), or a named one.
+  std::optional<StereoMatcherKind> kind;
+  /// The semi-global matcher's options (kind sgm); min/max_disparity come from `matcher`.
+  SgmOptions sgm;
   RectifyOptions rectify;  ///< used only for a raw (calibrated, unrectified) pair
   /// Also fill StereoDepthFrame::depth_m (the RGB-D trackers need it; disparity-space tracking
   /// does not).
@@ -38,7 +47,7 @@ struct StereoDepthFrame {
 class StereoFrontEnd {
  public:
   /// A raw (distorted, unrectified) pair: every frame is rectified first. Invalid matcher
-  /// options are an InputError naming the block matcher.
+  /// options are an InputError naming the matcher.
   StereoFrontEnd(const StereoCalibration& calibration, const StereoFrontEndOptions& options);
   /// An already rectified rig (rendered pairs, rectifying cameras): no remapping.
   StereoFrontEnd(const RectifiedStereo& rig, const StereoFrontEndOptions& options);
@@ -52,14 +61,14 @@ class StereoFrontEnd {
   /// rectification): depth and poses are of the rectified left camera.
   [[nodiscard]] Eigen::Matrix3d R_rect_left() const;
   [[nodiscard]] bool rectifies() const { return rectifier_.has_value(); }
-  [[nodiscard]] const BlockMatcher& matcher() const { return matcher_; }
+  [[nodiscard]] const StereoMatcher& matcher() const { return matcher_; }
   [[nodiscard]] const StereoFrontEndOptions& options() const { return options_; }
 
  private:
   StereoFrontEndOptions options_;
   std::optional<StereoRectifier> rectifier_;
   RectifiedStereo rig_;
-  BlockMatcher matcher_;
+  StereoMatcher matcher_;
 };
 
 }  // namespace kestrel::sensor
