@@ -292,10 +292,13 @@ enum class Slide { kNone, kSadSmall, kSad };
 
 // The fast scan's state along one row. The structs' fields are copied in, as locals: the
 // per-pixel stores could alias the structs' fields, which would make the compiler reload them
-// for every pixel.
-template <int kLanes, Slide kSlide>
+// for every pixel. kLr: the left-right check off (0), on with lr_max_diff 1 (1, the default) or
+// on with another tolerance (2); a template argument, so that a scan without the check keeps
+// no right-view window in registers and no scan tests the options per pixel.
+template <int kLanes, Slide kSlide, int kLr>
 struct FastScan {
   static constexpr int L = kLanes;
+  static constexpr int kLrMode = kLr;
   static constexpr int NV = kLanes / kV;
   static constexpr int kBits = kLanes == 32 ? 2 : 3;
   static constexpr int kSlot = L + 2 * kRingGuard;  // guard lanes, the lanes, guard lanes
@@ -303,7 +306,7 @@ struct FastScan {
   // implicit one without them and then cannot inline the vectors' constructors on NEON.
   FastScan() {}  // NOLINT(modernize-use-equals-default)
   int w, r, num, d_top, lr, lane_floor;
-  bool lr_check, uniqueness;
+  bool uniqueness;
   std::uint16_t* cs;
   std::uint16_t* right_min;
   std::uint16_t* ring;
@@ -352,9 +355,9 @@ HWY_INLINE LowHigh fast_scaled_change(V8 a_new, V8 a_old) {
 }
 
 // Column c slid down one row (kSlide), in registers and stored back.
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_column(const FastScan<kLanes, kSlide>& t, int c, V16* out) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_column(const FastScan<kLanes, kSlide, kLr>& t, int c, V16* out) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16 d16;
   std::uint16_t* col = t.cs + static_cast<std::size_t>(c) * kLanes;
   if constexpr (kSlide == Slide::kNone) {
@@ -377,14 +380,13 @@ HWY_INLINE void fast_column(const FastScan<kLanes, kSlide>& t, int c, V16* out) 
 }
 
 // The row's state from the structs.
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_copy_in(FastScan<kLanes, kSlide>& t, const RowScan& s, const FastRow& f) {
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_copy_in(FastScan<kLanes, kSlide, kLr>& t, const RowScan& s, const FastRow& f) {
   t.w = s.width;
   t.r = s.radius;
   t.num = s.num;
   t.d_top = s.d_top;
   t.lr = f.lr_max_diff;
-  t.lr_check = t.lr >= 0;
   t.uniqueness = s.uniqueness > 0;
   t.cs = s.column_sums;
   t.right_min = s.right_min;
@@ -401,9 +403,9 @@ HWY_INLINE void fast_copy_in(FastScan<kLanes, kSlide>& t, const RowScan& s, cons
 
 // The row's state, the guard slots of pixels -kFastMaxLrDiff..-1, and the tagged box of pixel
 // 0's window (columns 0 .. 2r).
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_begin(FastScan<kLanes, kSlide>& t, const RowScan& s, const FastRow& f) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_begin(FastScan<kLanes, kSlide, kLr>& t, const RowScan& s, const FastRow& f) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16 d16;
   const DI16 di16;
   fast_copy_in(t, s, f);
@@ -430,16 +432,26 @@ HWY_INLINE void fast_begin(FastScan<kLanes, kSlide>& t, const RowScan& s, const 
 
 // The winner of pixel x: the tagged cost and the first lane from one fold and one horizontal
 // minimum.
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide>& t, int x, const V16* v) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide, kLr>& t, int x, const V16* v) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16x8 d8l;
   V16 m = v[0];
   for (int i = 1; i < Scan::NV; ++i) m = hn::Min(m, v[i]);
   const auto fold = fold_to_128(m);
   const auto least = hn::MinOfLanes(d8l, fold);
   // Some position holds the minimum: no test for none.
-  const auto j = static_cast<std::uint32_t>(hn::FindKnownFirstTrue(d8l, hn::Eq(fold, least)));
+  const auto at_least = hn::Eq(fold, least);
+#if HWY_ARCH_X86 && HWY_TARGET > HWY_AVX3
+  // Masks are vectors here: the compare's byte mask (two bits a lane) needs no pack to 8 bits,
+  // nor the zero vector that the pack keeps in a register.
+  const hn::Repartition<std::uint8_t, D16x8> d8b;
+  const auto j = static_cast<std::uint32_t>(hn::FindKnownFirstTrue(
+                     d8b, hn::MaskFromVec(hn::BitCast(d8b, hn::VecFromMask(d8l, at_least))))) >>
+                 1;
+#else
+  const auto j = static_cast<std::uint32_t>(hn::FindKnownFirstTrue(d8l, at_least));
+#endif
   const std::uint32_t tagged = hn::GetLane(least);
   t.fields[kFieldCost * kFieldStride + x] = static_cast<std::uint16_t>(tagged);
   t.fields[kFieldBest * kFieldStride + x] =
@@ -450,9 +462,9 @@ HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide>& t, int x, cons
 // this x. The window then moves down one lane, in storage order: each block of the low vector
 // of a group takes the first lane of the high vector's same block, each block of the high
 // vector that of the next block in lane order (next_lanes).
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_fold_right(FastScan<kLanes, kSlide>& t, int x, const V16* v) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_fold_right(FastScan<kLanes, kSlide, kLr>& t, int x, const V16* v) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16 d16;
   for (int i = 0; i < Scan::NV; ++i) t.win[i] = hn::Min(t.win[i], v[i]);
   t.right_min[x] = hn::GetLane(t.win[0]);
@@ -466,9 +478,9 @@ HWY_INLINE void fast_fold_right(FastScan<kLanes, kSlide>& t, int x, const V16* v
 
 // Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in the
 // ring, find the winner, and fold the costs into the right view's minima.
-template <bool kMasked, int kLanes, Slide kSlide>
-HWY_INLINE void fast_scan_pixel(FastScan<kLanes, kSlide>& t, int x) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <bool kMasked, int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_scan_pixel(FastScan<kLanes, kSlide, kLr>& t, int x) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16 d16;
   const DI16 di16;
   if (x > 0) {
@@ -494,24 +506,25 @@ HWY_INLINE void fast_scan_pixel(FastScan<kLanes, kSlide>& t, int x) {
   std::uint16_t* slot = fast_ring_at(t, x);
   for (int i = 0; i < Scan::NV; ++i) hn::StoreU(v[i], d16, slot + kV * i);
   fast_store_winner(t, x, v);
-  if (t.lr_check) fast_fold_right(t, x, v);
+  if constexpr (kLr) fast_fold_right(t, x, v);
 }
 
 // The least cost on the right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
 template <class Scan>
 HWY_INLINE std::uint16_t fast_diagonal(const Scan& t, int q, int best, std::uint16_t cost) {
   std::uint16_t diag = cost;
-  if (t.lr == 1) {  // the default: the positions are the fit's
+  if constexpr (Scan::kLrMode == 1) {  // the default: the positions are the fit's
     const std::uint16_t left = fast_ring_at(t, q - 1)[t.position[best + 1]];
     const std::uint16_t right = fast_ring_at(t, q + 1)[t.position[best - 1]];
     return std::min(diag, std::min(right, left));
+  } else {
+    for (int j = 1; j <= t.lr; ++j) {
+      const std::uint16_t right = fast_ring_at(t, q + j)[t.position[best - j]];
+      const std::uint16_t left = fast_ring_at(t, q - j)[t.position[best + j]];
+      diag = std::min(diag, std::min(right, left));
+    }
+    return diag;
   }
-  for (int j = 1; j <= t.lr; ++j) {
-    const std::uint16_t right = fast_ring_at(t, q + j)[t.position[best - j]];
-    const std::uint16_t left = fast_ring_at(t, q - j)[t.position[best + j]];
-    diag = std::min(diag, std::min(right, left));
-  }
-  return diag;
 }
 
 // Stage 2, pixel q = x - kLag: what the checks and the fit need around the winner, read back
@@ -521,9 +534,9 @@ HWY_INLINE std::uint16_t fast_diagonal(const Scan& t, int q, int best, std::uint
 // still in flight that it does not match cannot be forwarded and stalls). Masked lanes and
 // the guard lanes and slots read as 0xFFFF, above every cost, so the reads need no range
 // checks: a minimum ignores them and the fit is not made there.
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide>& t, int q) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr>& t, int q) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16 d16;
   const std::uint16_t* slot = fast_ring_at(t, q);
   std::uint16_t* fq = t.fields + q;
@@ -539,14 +552,14 @@ HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide>& t, int q) {
   }
   fq[kFieldMinus * kFieldStride] = slot[t.position[best + 1]];
   fq[kFieldPlus * kFieldStride] = slot[t.position[best - 1]];
-  if (t.lr_check)
+  if constexpr (kLr)
     fq[kFieldDiag * kFieldStride] = fast_diagonal(t, q, best, fq[kFieldCost * kFieldStride]);
 }
 
 // The last kLag pixels' stage 2, then the right view's last minima.
-template <int kLanes, Slide kSlide>
-HWY_INLINE void fast_end(const FastScan<kLanes, kSlide>& t) {
-  using Scan = FastScan<kLanes, kSlide>;
+template <int kLanes, Slide kSlide, int kLr>
+HWY_INLINE void fast_end(const FastScan<kLanes, kSlide, kLr>& t) {
+  using Scan = FastScan<kLanes, kSlide, kLr>;
   const D16 d16;
   const int w = t.w;
   // The guard slots of pixels w.. overwrite pixels w - kRingSlots.., which only the pixels
@@ -558,7 +571,7 @@ HWY_INLINE void fast_end(const FastScan<kLanes, kSlide>& t) {
       hn::StoreU(hn::Set(d16, kMaskedCost), d16, fast_ring_at(t, x) + kV * i);
   }
   for (int q = std::max(q_guard, w - kLag); q < w; ++q) fast_check_pixel(t, q);
-  if (t.lr_check) {  // right pixels w - d_top + k, k < L: back to lane order
+  if constexpr (kLr) {  // right pixels w - d_top + k, k < L: back to lane order
     HWY_ALIGN std::uint16_t rest[kLanes];
     for (int i = 0; i < Scan::NV; ++i) hn::Store(t.win[i], d16, rest + kV * i);
     for (int k = 0; k < kLanes; ++k) t.right_min[w + k] = rest[t.position[k]];
@@ -566,9 +579,9 @@ HWY_INLINE void fast_end(const FastScan<kLanes, kSlide>& t) {
 }
 
 // The scan of one row: per pixel the fields of FastField.
-template <int kLanes, Slide kSlide>
+template <int kLanes, Slide kSlide, int kLr>
 void scan_row_fast(const RowScan& s, const FastRow& f) {
-  FastScan<kLanes, kSlide> t;
+  FastScan<kLanes, kSlide, kLr> t;
   fast_begin(t, s, f);
   const int w = t.w, num = t.num, d_top = t.d_top;
   const int x_full = kLanes > num ? w : std::min(w, std::max(0, d_top + 1));
@@ -816,6 +829,18 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
   for (; p < t.w; ++p) fast_finish1<kBits, kChecks>(t, p, out, stats);
 }
 
+// The scan of one row with the column slide it needs.
+template <int kLanes, int kLr>
+void scan_row_fast_slide(const RowScan& scan, const FastRow& fast) {
+  if (scan.left_new == nullptr) {
+    scan_row_fast<kLanes, Slide::kNone, kLr>(scan, fast);
+  } else if (fast.small_costs) {
+    scan_row_fast<kLanes, Slide::kSadSmall, kLr>(scan, fast);
+  } else {
+    scan_row_fast<kLanes, Slide::kSad, kLr>(scan, fast);
+  }
+}
+
 template <int kBits, std::size_t... kChecks>
 constexpr auto finish_row_table(std::index_sequence<kChecks...>) {
   return std::array{&finish_row_fast<kBits, static_cast<int>(kChecks)>...};
@@ -823,14 +848,14 @@ constexpr auto finish_row_table(std::index_sequence<kChecks...>) {
 
 template <int kLanes>
 void match_row_fast_lanes(const RowScan& scan, const FastRow& fast, float* out, MatchStats& stats) {
-  constexpr int kBits = FastScan<kLanes, Slide::kNone>::kBits;
+  constexpr int kBits = FastScan<kLanes, Slide::kNone, 0>::kBits;
   static constexpr auto kFinishes = finish_row_table<kBits>(std::make_index_sequence<16>{});
-  if (scan.left_new == nullptr) {
-    scan_row_fast<kLanes, Slide::kNone>(scan, fast);
-  } else if (fast.small_costs) {
-    scan_row_fast<kLanes, Slide::kSadSmall>(scan, fast);
+  if (fast.lr_max_diff == 1) {
+    scan_row_fast_slide<kLanes, 1>(scan, fast);
+  } else if (fast.lr_max_diff >= 0) {
+    scan_row_fast_slide<kLanes, 2>(scan, fast);
   } else {
-    scan_row_fast<kLanes, Slide::kSad>(scan, fast);
+    scan_row_fast_slide<kLanes, 0>(scan, fast);
   }
   const int checks =
       (fast.texture ? kFinishTexture : 0) | (scan.uniqueness > 0 ? kFinishUnique : 0) |
