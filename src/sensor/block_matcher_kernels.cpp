@@ -510,12 +510,14 @@ HWY_INLINE void fast_scan_pixel(FastScan<kLanes, kSlide, kLr>& t, int x) {
 }
 
 // The least cost on the right pixel q - d's diagonal: pixel q + j at lane best - j, |j| <= lr.
+// at_minus, at_plus: the positions of lanes best + 1 and best - 1.
 template <class Scan>
-HWY_INLINE std::uint16_t fast_diagonal(const Scan& t, int q, int best, std::uint16_t cost) {
+HWY_INLINE std::uint16_t fast_diagonal(const Scan& t, int q, int best, std::uint16_t cost,
+                                       int at_minus, int at_plus) {
   std::uint16_t diag = cost;
   if constexpr (Scan::kLrMode == 1) {  // the default: the positions are the fit's
-    const std::uint16_t left = fast_ring_at(t, q - 1)[t.position[best + 1]];
-    const std::uint16_t right = fast_ring_at(t, q + 1)[t.position[best - 1]];
+    const std::uint16_t left = fast_ring_at(t, q - 1)[at_minus];
+    const std::uint16_t right = fast_ring_at(t, q + 1)[at_plus];
     return std::min(diag, std::min(right, left));
   } else {
     for (int j = 1; j <= t.lr; ++j) {
@@ -541,6 +543,9 @@ HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr>& t, int q) 
   const std::uint16_t* slot = fast_ring_at(t, q);
   std::uint16_t* fq = t.fields + q;
   const int best = fq[kFieldBest * kFieldStride];
+  const std::uint16_t cost = fq[kFieldCost * kFieldStride];
+  // The fit's positions, read once before the stores below (which could alias the table).
+  const int at_minus = t.position[best + 1], at_plus = t.position[best - 1];
   if (t.uniqueness) {
     // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
     const std::uint16_t* near = t.near_masks + static_cast<std::size_t>(best) * kLanes;
@@ -550,10 +555,10 @@ HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr>& t, int q) 
     }
     fq[kFieldSecond * kFieldStride] = static_cast<std::uint16_t>(min_lane(m));
   }
-  fq[kFieldMinus * kFieldStride] = slot[t.position[best + 1]];
-  fq[kFieldPlus * kFieldStride] = slot[t.position[best - 1]];
+  fq[kFieldMinus * kFieldStride] = slot[at_minus];
+  fq[kFieldPlus * kFieldStride] = slot[at_plus];
   if constexpr (kLr)
-    fq[kFieldDiag * kFieldStride] = fast_diagonal(t, q, best, fq[kFieldCost * kFieldStride]);
+    fq[kFieldDiag * kFieldStride] = fast_diagonal(t, q, best, cost, at_minus, at_plus);
 }
 
 // The last kLag pixels' stage 2, then the right view's last minima.
@@ -589,9 +594,15 @@ void scan_row_fast(const RowScan& s, const FastRow& f) {
     fast_scan_pixel<true>(t, x);
     if (x >= kLag) fast_check_pixel(t, x - kLag);
   }
-  for (int x = x_full; x < w; ++x) {
+  // The unmasked pixels (most of the row) in two loops, so that the long one tests nothing.
+  const int x_check = std::min(w, std::max(x_full, kLag));
+  for (int x = x_full; x < x_check; ++x) {
     fast_scan_pixel<false>(t, x);
     if (x >= kLag) fast_check_pixel(t, x - kLag);
+  }
+  for (int x = x_check; x < w; ++x) {
+    fast_scan_pixel<false>(t, x);
+    fast_check_pixel(t, x - kLag);
   }
   fast_end(t);
 }
