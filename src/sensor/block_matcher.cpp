@@ -268,7 +268,8 @@ void BlockMatcher::prepare(int width, int height) {
   row_disp_.assign(static_cast<std::size_t>(width), -1);
   row_state_.assign(static_cast<std::size_t>(width), 0);
   gradient_.assign(texture_min_ > 0 ? cols * static_cast<std::size_t>(height) : 0, 0);
-  volume_ring_.assign(fast_ ? kRingSlots * (lanes + 2 * kRingGuard) + kAlignSlack : 0, kMaskedCost);
+  volume_ring_.assign(fast_ ? kRingSlots * kernels::fast_ring_slot(lanes) + kAlignSlack : 0,
+                      kMaskedCost);
   row_fields_.assign(fast_ && width <= kFieldStride ? std::size_t{kFieldCount} * kFieldStride : 0,
                      0);
 }

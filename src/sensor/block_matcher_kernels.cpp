@@ -301,7 +301,7 @@ struct FastScan {
   static constexpr int kLrMode = kLr;
   static constexpr int NV = kLanes / kV;
   static constexpr int kBits = kLanes == 32 ? 2 : 3;
-  static constexpr int kSlot = L + 2 * kRingGuard;  // guard lanes, the lanes, guard lanes
+  static constexpr int kSlot = fast_ring_slot(L);  // guard lanes, the lanes, guard lanes
   // User-provided, so that it is compiled with the target's attributes: GCC compiles an
   // implicit one without them and then cannot inline the vectors' constructors on NEON.
   FastScan() {}  // NOLINT(modernize-use-equals-default)

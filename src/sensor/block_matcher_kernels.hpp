@@ -27,6 +27,14 @@ inline constexpr int kRingSlots = 32;
 inline constexpr int kRingGuard = 16;  // 32 bytes: the slots' lanes stay 32-byte aligned
 static_assert(kLag > kFastMaxLrDiff && kRingSlots > kLag + kFastMaxLrDiff &&
               kRingGuard >= kFastMaxLrDiff);
+/// uint16 elements of one ring slot of a fast row of `lanes` lanes: kRingGuard masked lanes,
+/// the lanes, and masked lanes up to a power of two (kRingGuard at least), so that a slot's
+/// address is a shift of its pixel, not a multiplication.
+constexpr int fast_ring_slot(int lanes) {
+  int slot = 1;
+  while (slot < lanes + 2 * kRingGuard) slot *= 2;
+  return slot;
+}
 
 /// What the fast scan leaves per pixel for the fast finish: one uint16 field array each, all
 /// at constant offsets from one base (kFieldStride apart). Costs are stored TAGGED (see
