@@ -293,9 +293,10 @@ enum class Slide { kNone, kSadSmall, kSad };
 // The fast scan's state along one row. The structs' fields are copied in, as locals: the
 // per-pixel stores could alias the structs' fields, which would make the compiler reload them
 // for every pixel. kLr: the left-right check off (0), on with lr_max_diff 1 (1, the default) or
-// on with another tolerance (2); a template argument, so that a scan without the check keeps
-// no right-view window in registers and no scan tests the options per pixel.
-template <int kLanes, Slide kSlide, int kLr>
+// on with another tolerance (2); kUnique: the uniqueness check is on (its second minimum).
+// Template arguments, so that a scan without the left-right check keeps no right-view window
+// in registers and no scan tests the options per pixel.
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
 struct FastScan {
   static constexpr int L = kLanes;
   static constexpr int kLrMode = kLr;
@@ -306,7 +307,6 @@ struct FastScan {
   // implicit one without them and then cannot inline the vectors' constructors on NEON.
   FastScan() {}  // NOLINT(modernize-use-equals-default)
   int w, r, num, d_top, lr, lane_floor;
-  bool uniqueness;
   std::uint16_t* cs;
   std::uint16_t* right_min;
   std::uint16_t* ring;
@@ -355,9 +355,9 @@ HWY_INLINE LowHigh fast_scaled_change(V8 a_new, V8 a_old) {
 }
 
 // Column c slid down one row (kSlide), in registers and stored back.
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_column(const FastScan<kLanes, kSlide, kLr>& t, int c, V16* out) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_column(const FastScan<kLanes, kSlide, kLr, kUnique>& t, int c, V16* out) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16 d16;
   std::uint16_t* col = t.cs + static_cast<std::size_t>(c) * kLanes;
   if constexpr (kSlide == Slide::kNone) {
@@ -380,14 +380,14 @@ HWY_INLINE void fast_column(const FastScan<kLanes, kSlide, kLr>& t, int c, V16* 
 }
 
 // The row's state from the structs.
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_copy_in(FastScan<kLanes, kSlide, kLr>& t, const RowScan& s, const FastRow& f) {
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_copy_in(FastScan<kLanes, kSlide, kLr, kUnique>& t, const RowScan& s,
+                             const FastRow& f) {
   t.w = s.width;
   t.r = s.radius;
   t.num = s.num;
   t.d_top = s.d_top;
   t.lr = f.lr_max_diff;
-  t.uniqueness = s.uniqueness > 0;
   t.cs = s.column_sums;
   t.right_min = s.right_min;
   t.ring = f.ring;
@@ -403,9 +403,10 @@ HWY_INLINE void fast_copy_in(FastScan<kLanes, kSlide, kLr>& t, const RowScan& s,
 
 // The row's state, the guard slots of pixels -kFastMaxLrDiff..-1, and the tagged box of pixel
 // 0's window (columns 0 .. 2r).
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_begin(FastScan<kLanes, kSlide, kLr>& t, const RowScan& s, const FastRow& f) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_begin(FastScan<kLanes, kSlide, kLr, kUnique>& t, const RowScan& s,
+                           const FastRow& f) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16 d16;
   const DI16 di16;
   fast_copy_in(t, s, f);
@@ -432,9 +433,10 @@ HWY_INLINE void fast_begin(FastScan<kLanes, kSlide, kLr>& t, const RowScan& s, c
 
 // The winner of pixel x: the tagged cost and the first lane from one fold and one horizontal
 // minimum.
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide, kLr>& t, int x, const V16* v) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide, kLr, kUnique>& t, int x,
+                                  const V16* v) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16x8 d8l;
   V16 m = v[0];
   for (int i = 1; i < Scan::NV; ++i) m = hn::Min(m, v[i]);
@@ -462,9 +464,9 @@ HWY_INLINE void fast_store_winner(const FastScan<kLanes, kSlide, kLr>& t, int x,
 // this x. The window then moves down one lane, in storage order: each block of the low vector
 // of a group takes the first lane of the high vector's same block, each block of the high
 // vector that of the next block in lane order (next_lanes).
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_fold_right(FastScan<kLanes, kSlide, kLr>& t, int x, const V16* v) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_fold_right(FastScan<kLanes, kSlide, kLr, kUnique>& t, int x, const V16* v) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16 d16;
   for (int i = 0; i < Scan::NV; ++i) t.win[i] = hn::Min(t.win[i], v[i]);
   t.right_min[x] = hn::GetLane(t.win[0]);
@@ -478,9 +480,9 @@ HWY_INLINE void fast_fold_right(FastScan<kLanes, kSlide, kLr>& t, int x, const V
 
 // Stage 1, pixel x: slide its new column, update the box, store the (masked) box costs in the
 // ring, find the winner, and fold the costs into the right view's minima.
-template <bool kMasked, int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_scan_pixel(FastScan<kLanes, kSlide, kLr>& t, int x) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <bool kMasked, int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_scan_pixel(FastScan<kLanes, kSlide, kLr, kUnique>& t, int x) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16 d16;
   const DI16 di16;
   if (x > 0) {
@@ -536,9 +538,9 @@ HWY_INLINE std::uint16_t fast_diagonal(const Scan& t, int q, int best, std::uint
 // still in flight that it does not match cannot be forwarded and stalls). Masked lanes and
 // the guard lanes and slots read as 0xFFFF, above every cost, so the reads need no range
 // checks: a minimum ignores them and the fit is not made there.
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr>& t, int q) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr, kUnique>& t, int q) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16 d16;
   const std::uint16_t* slot = fast_ring_at(t, q);
   std::uint16_t* fq = t.fields + q;
@@ -546,7 +548,7 @@ HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr>& t, int q) 
   const std::uint16_t cost = fq[kFieldCost * kFieldStride];
   // The fit's positions, read once before the stores below (which could alias the table).
   const int at_minus = t.position[best + 1], at_plus = t.position[best - 1];
-  if (t.uniqueness) {
+  if constexpr (kUnique) {
     // The least cost of the lanes further than 1 from the winner (all masked: 0xFFFF).
     const std::uint16_t* near = t.near_masks + static_cast<std::size_t>(best) * kLanes;
     V16 m = hn::Or(hn::LoadU(d16, slot), hn::LoadU(d16, near));
@@ -562,9 +564,9 @@ HWY_INLINE void fast_check_pixel(const FastScan<kLanes, kSlide, kLr>& t, int q) 
 }
 
 // The last kLag pixels' stage 2, then the right view's last minima.
-template <int kLanes, Slide kSlide, int kLr>
-HWY_INLINE void fast_end(const FastScan<kLanes, kSlide, kLr>& t) {
-  using Scan = FastScan<kLanes, kSlide, kLr>;
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
+HWY_INLINE void fast_end(const FastScan<kLanes, kSlide, kLr, kUnique>& t) {
+  using Scan = FastScan<kLanes, kSlide, kLr, kUnique>;
   const D16 d16;
   const int w = t.w;
   // The guard slots of pixels w.. overwrite pixels w - kRingSlots.., which only the pixels
@@ -584,9 +586,9 @@ HWY_INLINE void fast_end(const FastScan<kLanes, kSlide, kLr>& t) {
 }
 
 // The scan of one row: per pixel the fields of FastField.
-template <int kLanes, Slide kSlide, int kLr>
+template <int kLanes, Slide kSlide, int kLr, bool kUnique>
 void scan_row_fast(const RowScan& s, const FastRow& f) {
-  FastScan<kLanes, kSlide, kLr> t;
+  FastScan<kLanes, kSlide, kLr, kUnique> t;
   fast_begin(t, s, f);
   const int w = t.w, num = t.num, d_top = t.d_top;
   const int x_full = kLanes > num ? w : std::min(w, std::max(0, d_top + 1));
@@ -841,14 +843,26 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
 }
 
 // The scan of one row with the column slide it needs.
-template <int kLanes, int kLr>
+template <int kLanes, int kLr, bool kUnique>
 void scan_row_fast_slide(const RowScan& scan, const FastRow& fast) {
   if (scan.left_new == nullptr) {
-    scan_row_fast<kLanes, Slide::kNone, kLr>(scan, fast);
+    scan_row_fast<kLanes, Slide::kNone, kLr, kUnique>(scan, fast);
   } else if (fast.small_costs) {
-    scan_row_fast<kLanes, Slide::kSadSmall, kLr>(scan, fast);
+    scan_row_fast<kLanes, Slide::kSadSmall, kLr, kUnique>(scan, fast);
   } else {
-    scan_row_fast<kLanes, Slide::kSad, kLr>(scan, fast);
+    scan_row_fast<kLanes, Slide::kSad, kLr, kUnique>(scan, fast);
+  }
+}
+
+// ... and with the checks' template arguments.
+template <int kLanes, bool kUnique>
+void scan_row_fast_checks(const RowScan& scan, const FastRow& fast) {
+  if (fast.lr_max_diff == 1) {
+    scan_row_fast_slide<kLanes, 1, kUnique>(scan, fast);
+  } else if (fast.lr_max_diff >= 0) {
+    scan_row_fast_slide<kLanes, 2, kUnique>(scan, fast);
+  } else {
+    scan_row_fast_slide<kLanes, 0, kUnique>(scan, fast);
   }
 }
 
@@ -859,14 +873,12 @@ constexpr auto finish_row_table(std::index_sequence<kChecks...>) {
 
 template <int kLanes>
 void match_row_fast_lanes(const RowScan& scan, const FastRow& fast, float* out, MatchStats& stats) {
-  constexpr int kBits = FastScan<kLanes, Slide::kNone, 0>::kBits;
+  constexpr int kBits = FastScan<kLanes, Slide::kNone, 0, false>::kBits;
   static constexpr auto kFinishes = finish_row_table<kBits>(std::make_index_sequence<16>{});
-  if (fast.lr_max_diff == 1) {
-    scan_row_fast_slide<kLanes, 1>(scan, fast);
-  } else if (fast.lr_max_diff >= 0) {
-    scan_row_fast_slide<kLanes, 2>(scan, fast);
+  if (scan.uniqueness > 0) {
+    scan_row_fast_checks<kLanes, true>(scan, fast);
   } else {
-    scan_row_fast_slide<kLanes, 0>(scan, fast);
+    scan_row_fast_checks<kLanes, false>(scan, fast);
   }
   const int checks =
       (fast.texture ? kFinishTexture : 0) | (scan.uniqueness > 0 ? kFinishUnique : 0) |
