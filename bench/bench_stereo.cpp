@@ -3,11 +3,14 @@
 // the 2014 training scenes, scored on their non-occluded pixels): bad-pixel rate (> 1 px or
 // missing, over pixels with known truth) and fill; the speed per 752x480 EuRoC pair (64
 // disparities, block 9, rectification excluded) and the fill rate over the EuRoC V1_01 part.
-// Usage: kestrel_bench_stereo [DATA_DIR] [--quick]
+// Usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]
+#include <hwy/targets.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <exception>
 #include <filesystem>
@@ -18,6 +21,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -126,10 +130,11 @@ cv::Ptr<cv::StereoSGBM> make_sgbm(int num) {
   return cv::StereoSGBM::create(0, num, kBlock, 8 * kBlock * kBlock, 32 * kBlock * kBlock);
 }
 
-BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost, bool filters) {
+BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost, bool filters,
+                                    int block = kBlock) {
   BlockMatcherOptions o;
   o.max_disparity = num;
-  o.block_size = kBlock;
+  o.block_size = block;
   o.cost = cost;
   if (!filters) {
     o.lr_max_diff = -1;
@@ -146,6 +151,20 @@ SgmOptions sgm_options(int num, bool checked = false) {
   o.max_disparity = num;
   if (checked) o.lr_max_diff = 1;
   return o;
+}
+
+// KESTREL_BENCH_SIMD=<target> (e.g. AVX2) runs the block matcher's kernels on that SIMD target
+// instead of the CPU's best, to compare targets in one binary.
+void choose_simd_target() {
+  const char* wanted = std::getenv("KESTREL_BENCH_SIMD");
+  if (wanted == nullptr) return;
+  for (const std::int64_t t : kestrel::sensor::block_matching_simd_targets()) {
+    if (std::string(hwy::TargetName(t)) == wanted) {
+      hwy::SetSupportedTargetsForTest(t);
+      return;
+    }
+  }
+  throw std::runtime_error(std::string("KESTREL_BENCH_SIMD: no target ") + wanted);
 }
 
 double thread_cpu_ms() {
@@ -177,10 +196,11 @@ void print_time(const char* name, std::pair<double, double> t) {
 
 void print_usage(std::FILE* to) {
   std::fprintf(to,
-               "usage: kestrel_bench_stereo [DATA_DIR] [--quick]\n"
+               "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]\n"
                "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy}, middlebury2014/<scene>\n"
                "            and euroc/V1_01_easy_part1 (default: %s)\n"
                "  --quick   5 EuRoC pairs and 5 timing repeats instead of all pairs and 30\n"
+               "  --speed   Kestrel's speed rows only (no Middlebury, no peers, no fill rate)\n"
                "  --help    this text\n",
                KESTREL_DEFAULT_DATA_DIR);
 }
@@ -233,9 +253,10 @@ void print_middlebury_table(const std::vector<Peer>& peers, const fs::path& data
     throw kestrel::InputError("DATA_DIR '" + data.string() + "' is not a folder");
   }
   const std::vector<ScoredPair> pairs = load_scored_pairs(data);
-  std::printf("Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity, "
-              "2014: non-occluded pixels) / fill %%; disparities searched in brackets\n",
-              kBlock);
+  std::printf(
+      "Middlebury, block %d, one thread: bad pixels %% (> 1 px error or no disparity, "
+      "2014: non-occluded pixels) / fill %%; disparities searched in brackets\n",
+      kBlock);
   std::printf("%-18s", "scene");
   for (const auto& peer : peers) std::printf(" %20s", peer.name.c_str());
   std::printf("\n");
@@ -251,17 +272,18 @@ void print_middlebury_table(const std::vector<Peer>& peers, const fs::path& data
   }
 }
 
-int run(const fs::path& data, bool quick) {
+int run(const fs::path& data, bool quick, bool speed_only) {
   cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
   using kestrel::sensor::MatchingCost;
 
   const std::vector<Peer> peers = make_peers();
-  print_middlebury_table(peers, data);
+  if (!speed_only) print_middlebury_table(peers, data);
 
   // --- EuRoC: speed per rectified pair and fill rate over the part.
   const fs::path euroc = data / "euroc" / "V1_01_easy_part1";
   if (!fs::exists(euroc)) {
-    std::printf("EuRoC data not found at %s: speed and fill rate skipped\n", euroc.string().c_str());
+    std::printf("EuRoC data not found at %s: speed and fill rate skipped\n",
+                euroc.string().c_str());
     return 0;
   }
   kestrel::io::EurocSequence seq(euroc);
@@ -272,7 +294,8 @@ int run(const fs::path& data, bool quick) {
               rig.f, rig.baseline_m, rig.width, rig.height, seq.stereo_size());
   const int num = 64;
   std::vector<std::pair<cv::Mat, cv::Mat>> rectified;
-  const std::size_t n_pairs = quick ? std::min<std::size_t>(5, seq.stereo_size()) : seq.stereo_size();
+  const std::size_t n_pairs =
+      quick ? std::min<std::size_t>(5, seq.stereo_size()) : seq.stereo_size();
   for (std::size_t i = 0; i < n_pairs; ++i) {
     const auto s = seq.load_stereo(i);
     cv::Mat l, r;
@@ -290,24 +313,33 @@ int run(const fs::path& data, bool quick) {
   auto bm = make_bm(num);
   auto sgbm = make_sgbm(num);
   cv::Mat d16;
-  std::printf("speed, %dx%d, %d disparities, block %d, one thread (median of %d):\n", l0.cols,
-              l0.rows, num, kBlock, repeats);
+  choose_simd_target();
+  std::printf("speed, %dx%d, %d disparities, block %d, one thread (median of %d), SIMD %s:\n",
+              l0.cols, l0.rows, num, kBlock, repeats,
+              kestrel::sensor::block_matching_simd_target());
   print_time("kestrel sad", time_ms([&] { sad.match(l0, r0, d); }, repeats));
   print_time("kestrel sad dense", time_ms([&] { sad_dense.match(l0, r0, d); }, repeats));
   print_time("kestrel census", time_ms([&] { census.match(l0, r0, d); }, repeats));
+  // The general scan (more than 64 lanes): 128 disparities, block 15.
+  BlockMatcher sad_wide(kestrel_options(128, MatchingCost::kSad, true, 15));
+  print_time("kestrel sad 128 blk 15", time_ms([&] { sad_wide.match(l0, r0, d); }, repeats));
   print_time("kestrel sgm", time_ms([&] { sgm.match(l0, r0, d); }, repeats));
   print_time("kestrel sgm lr", time_ms([&] { sgm_lr.match(l0, r0, d); }, repeats));
   std::printf("  (kestrel sgm kernels: %s)\n", SgmMatcher::simd_target());
+  if (speed_only) return 0;
   print_time("opencv StereoBM", time_ms([&] { bm->compute(l0, r0, d16); }, repeats));
-  print_time("opencv StereoSGBM", time_ms([&] { sgbm->compute(l0, r0, d16); }, std::max(3, repeats / 5)));
+  print_time("opencv StereoSGBM",
+             time_ms([&] { sgbm->compute(l0, r0, d16); }, std::max(3, repeats / 5)));
 
-  std::printf("fill rate over %zu rectified pairs (share of all pixels with a disparity):\n", rectified.size());
+  std::printf("fill rate over %zu rectified pairs (share of all pixels with a disparity):\n",
+              rectified.size());
   for (const auto& peer : peers) {
     double filled = 0.0, total = 0.0;
     for (const auto& [l, r] : rectified) {
       const cv::Mat disp = peer.run(l, r, num);
       for (int y = 0; y < disp.rows; ++y) {
-        for (int x = 0; x < disp.cols; ++x) filled += std::isfinite(disp.at<float>(y, x)) ? 1.0 : 0.0;
+        for (int x = 0; x < disp.cols; ++x)
+          filled += std::isfinite(disp.at<float>(y, x)) ? 1.0 : 0.0;
       }
       total += double(disp.total());
     }
@@ -320,11 +352,13 @@ int run(const fs::path& data, bool quick) {
 
 int main(int argc, char** argv) {
   fs::path data = KESTREL_DEFAULT_DATA_DIR;
-  bool quick = false, have_data = false;
+  bool quick = false, speed_only = false, have_data = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--quick") {
       quick = true;
+    } else if (arg == "--speed") {
+      speed_only = true;
     } else if (arg == "--help" || arg == "-h") {
       print_usage(stdout);
       return 0;
@@ -343,7 +377,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    return run(data, quick);
+    return run(data, quick, speed_only);
   } catch (const kestrel::InputError& e) {
     std::fprintf(stderr, "kestrel_bench_stereo: error: %s\n", e.what());
     return 1;

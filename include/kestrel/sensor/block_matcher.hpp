@@ -132,13 +132,14 @@ class BlockMatcher {
   MatchStats match(const cv::Mat& left, const cv::Mat& right, cv::Mat& disparity);
   [[nodiscard]] cv::Mat match(const cv::Mat& left, const cv::Mat& right);
 
-  /// Runs the portable row scan even where the AVX2 ones are compiled in, for tests and
-  /// benchmarks that compare them: the maps and stats are the same by design. Off by default.
+  /// Runs the scalar reference row scan instead of the SIMD kernels, for tests and benchmarks
+  /// that compare them: the maps and stats are the same by design. Off by default.
   void set_portable(bool portable) { portable_ = portable; }
   [[nodiscard]] bool portable() const { return portable_; }
 
  private:
   void prepare(int width, int height);
+  void select_simd_target();
   void preprocess(const cv::Mat& left, const cv::Mat& right);
   void init_column_sums();
   void advance_column_sums(int y);
@@ -153,27 +154,39 @@ class BlockMatcher {
   int row_stride_l_ = 0, row_stride_r_ = 0;
   float d_min_valid_ = 0.0F, d_max_valid_ = kNoDisparity;  // from the depth range
   std::uint32_t texture_min_ = 0;  // least window sum of |central difference|; 0: no test
-  bool fast_ = false;              // the tagged-cost AVX2 row (32 or 64 lanes) applies
-  bool portable_ = false;          // set_portable: the portable scan even with AVX2
-  cv::Mat gray_l_, gray_r_;                                 // 8-bit grey inputs (converted)
-  std::vector<std::uint8_t> left_, right_;                  // padded, prefiltered rows
-  std::vector<std::uint64_t> census_l_, census_r_;          // padded census signatures
-  std::vector<std::uint8_t> cost_ring_;                     // census: per-pixel cost rows
-  std::vector<std::uint16_t> column_sums_;                  // (W + 2r) x lanes
-  std::vector<std::uint32_t> texture_columns_;              // W + 2r
-  std::vector<std::uint8_t> gradient_;                      // H x (W + 2r): texture input
-  std::vector<std::uint16_t> volume_;                       // W x lanes: box costs of a row
-  std::vector<std::uint16_t> right_min_;                    // W + lanes: right view's best
-  std::vector<std::int32_t> row_disp_;                      // winning lane per u, -1 none
+  bool fast_ = false;              // the options suit the tagged-cost fast row (32 or 64 lanes)
+  bool portable_ = false;          // set_portable: the scalar reference even with SIMD
+  int vector_lanes_ = -1;          // uint16 lanes of the SIMD target in use; < 8: none (scalar)
+  cv::Mat gray_l_, gray_r_;        // 8-bit grey inputs (converted)
+  std::vector<std::uint8_t> left_, right_;          // padded, prefiltered rows
+  std::vector<std::uint64_t> census_l_, census_r_;  // padded census signatures
+  std::vector<std::uint8_t> cost_ring_;             // census: per-pixel cost rows
+  std::vector<std::uint16_t> column_sums_;          // (W + 2r) x lanes
+  std::vector<std::uint32_t> texture_columns_;      // W + 2r
+  std::vector<std::uint8_t> gradient_;              // H x (W + 2r): texture input
+  std::vector<std::uint16_t> volume_;               // W x lanes: box costs of a row
+  std::vector<std::uint16_t> right_min_;            // W + lanes: right view's best
+  std::vector<std::int32_t> row_disp_;              // winning lane per u, -1 none
   std::vector<std::uint8_t> row_state_;
-  // Fast row (AVX2, 32 or 64 lanes): its column sums are scaled by column_scale() and stored
-  // in its lane order; box costs of the last pixels, the per-pixel fields the scan leaves for
-  // the finish, the winner's neighbour masks and the slot position of each lane.
-  [[nodiscard]] bool fast_row() const;     // fast_, not set_portable, width within its limit
-  [[nodiscard]] int column_scale() const;  // 2^tag bits on the fast row, else 1
+  // Fast row (SIMD, 32 or 64 lanes): its column sums are scaled by column_scale() and stored
+  // in its lane order (storage_order, which depends on the vector width); box costs of the
+  // last pixels, the per-pixel fields the scan leaves for the finish, the winner's neighbour
+  // masks and the slot position of each lane.
+  [[nodiscard]] bool simd() const;          // SIMD kernels: a target with vectors, not portable
+  [[nodiscard]] bool fast_row() const;      // fast_, simd(), width within its limit
+  [[nodiscard]] int column_scale() const;   // 2^tag bits on the fast row, else 1
+  [[nodiscard]] int storage_order() const;  // fast_lane_position's vector_lanes (0: lane order)
   std::vector<std::uint16_t> volume_ring_, row_fields_, near_masks_;
   std::vector<std::int16_t> lane_positions_;
 };
+
+/// The SIMD target the block matcher's row kernels run on (Google Highway's name: "AVX2",
+/// "AVX3", "SSE4", "NEON", "EMU128", ...): the best one the CPU has, or the one a test forces
+/// with hwy::SetSupportedTargetsForTest.
+[[nodiscard]] const char* block_matching_simd_target();
+/// Every target the kernels were compiled for that this CPU supports, best first (Highway's
+/// target bits), for tests that run the matcher on each.
+[[nodiscard]] std::vector<std::int64_t> block_matching_simd_targets();
 
 /// Disparity to depth Z = B f / d (thesis eq. 2.9), CV_32F metres, 0 where no disparity.
 void disparity_to_depth(const cv::Mat& disparity_px, const RectifiedStereo& rig, cv::Mat& depth_m);
