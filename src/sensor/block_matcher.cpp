@@ -5,6 +5,8 @@
 // increasing: right index = left column + lane. Optimisation notes: docs/stereo.md.
 #include "kestrel/sensor/block_matcher.hpp"
 
+#include "grey_input.hpp"
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -276,26 +278,6 @@ void BlockMatcher::prepare(int width, int height) {
 
 namespace {
 
-cv::Mat to_gray8(const cv::Mat& image, cv::Mat& buffer, const char* which) {
-  if (image.empty()) throw InputError(std::string("stereo: the ") + which + " image is empty");
-  if (image.type() == CV_8UC1) return image;
-  if (image.type() == CV_8UC3) {
-    cv::cvtColor(image, buffer, cv::COLOR_BGR2GRAY);
-    return buffer;
-  }
-  if (image.type() == CV_32FC1) {
-    image.convertTo(buffer, CV_8U);  // saturating, rounded
-    return buffer;
-  }
-  throw InputError(std::string("stereo: the ") + which +
-                   " image must be 8-bit grey, 8-bit BGR or float grey, got OpenCV type " +
-                   std::to_string(image.type()));
-}
-
-}  // namespace
-
-namespace {
-
 /// |I(y, x+1) - I(y, x-1)| for padded column c (x = c - r, clamped to the image).
 inline std::uint32_t gradient_at(const std::uint8_t* row, int c, int r, int w) {
   const int x = clampi(c - r, 0, w - 1);
@@ -358,8 +340,8 @@ void gradient_rows(const cv::Mat& img, int rad, int cols, std::uint8_t* gradient
 }  // namespace
 
 void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
-  const cv::Mat l = to_gray8(left, gray_l_, "left");
-  const cv::Mat r = to_gray8(right, gray_r_, "right");
+  const cv::Mat l = grey8(left, gray_l_, "left");
+  const cv::Mat r = grey8(right, gray_r_, "right");
   const int w = width_, h = height_, rad = radius_;
   if (options_.cost == MatchingCost::kSad) {
     // Prefiltered value per image pixel, then replicated into the padded rows.

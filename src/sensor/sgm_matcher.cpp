@@ -6,6 +6,8 @@
 // large buffer is the top-down sums. The row kernels are in sgm_kernels.hpp.
 #include "kestrel/sensor/sgm_matcher.hpp"
 
+#include "grey_input.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
@@ -24,20 +26,6 @@ namespace {
 using sgm::kSgmGuard;
 using sgm::kSgmMaskedCost;
 using sgm::kSgmMaxVectorLanes;
-
-/// The 8-bit grey view of an input image (converted into `buffer` when needed).
-const cv::Mat& to_gray(const cv::Mat& image, cv::Mat& buffer, const char* which) {
-  if (image.type() == CV_8UC1) return image;
-  if (image.type() == CV_8UC3) {
-    cv::cvtColor(image, buffer, cv::COLOR_BGR2GRAY);
-  } else if (image.type() == CV_32FC1) {
-    image.convertTo(buffer, CV_8U);
-  } else {
-    throw InputError(std::string("semi-global matcher: the ") + which +
-                     " image must be 8-bit grey, 8-bit BGR or float grey");
-  }
-  return buffer;
-}
 
 }  // namespace
 
@@ -371,8 +359,8 @@ MatchStats SgmMatcher::match(const cv::Mat& left, const cv::Mat& right, cv::Mat&
   if (left.size() != right.size()) {
     throw InputError("semi-global matcher: the left and right images differ in size");
   }
-  left_ = to_gray(left, gray_l_, "left");
-  const cv::Mat& right_gray = to_gray(right, gray_r_, "right");
+  left_ = grey8(left, gray_l_, "left");
+  const cv::Mat right_gray = grey8(right, gray_r_, "right");
   prepare(left.cols, left.rows);
   p2_lut_.resize(256);
   for (int di = 0; di < 256; ++di) {
