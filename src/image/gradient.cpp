@@ -3,6 +3,8 @@
 
 #include <stdexcept>
 
+#include "kestrel/image/row_kernels.hpp"
+
 namespace kestrel::image {
 
 void central_gradients(const cv::Mat& image, cv::Mat& gx, cv::Mat& gy) {
@@ -18,16 +20,11 @@ void central_gradients(const cv::Mat& image, cv::Mat& gx, cv::Mat& gy) {
   gx.row(h - 1).setTo(0.0F);
   gy.row(h - 1).setTo(0.0F);
   for (int y = 1; y < h - 1; ++y) {
-    const float* up = image.ptr<float>(y - 1);
-    const float* mid = image.ptr<float>(y);
-    const float* down = image.ptr<float>(y + 1);
     float* ox = gx.ptr<float>(y);
     float* oy = gy.ptr<float>(y);
     ox[0] = oy[0] = ox[w - 1] = oy[w - 1] = 0.0F;
-    for (int x = 1; x < w - 1; ++x) {
-      ox[x] = 0.5F * (mid[x + 1] - mid[x - 1]);
-      oy[x] = 0.5F * (down[x] - up[x]);
-    }
+    kernels::central_gradient_row(image.ptr<float>(y - 1), image.ptr<float>(y),
+                                  image.ptr<float>(y + 1), ox, oy, w);
   }
 }
 

@@ -6,6 +6,8 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "kestrel/image/row_kernels.hpp"
+
 namespace kestrel::image {
 
 std::string_view to_string(PyramidFilter filter) {
@@ -23,24 +25,19 @@ cv::Size half_size(cv::Size size) { return {size.width / 2, size.height / 2}; }
 
 namespace {
 
-// 2x2 mean into out (sized half_size(in)). Plain loops: GCC vectorises the inner one.
+// 2x2 mean into out (sized half_size(in)).
 void mean_2x2(const cv::Mat& in, cv::Mat& out) {
   const cv::Size s = half_size(in.size());
   out.create(s, CV_32FC1);
   for (int y = 0; y < s.height; ++y) {
-    const float* r0 = in.ptr<float>(2 * y);
-    const float* r1 = in.ptr<float>(2 * y + 1);
-    float* o = out.ptr<float>(y);
-    for (int x = 0; x < s.width; ++x) {
-      o[x] = 0.25F * ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1]));
-    }
+    kernels::mean_2x2_row(in.ptr<float>(2 * y), in.ptr<float>(2 * y + 1), out.ptr<float>(y),
+                          s.width);
   }
 }
 
 }  // namespace
 
-void downsample_intensity(const cv::Mat& in, cv::Mat& out, PyramidFilter filter,
-                          cv::Mat& scratch) {
+void downsample_intensity(const cv::Mat& in, cv::Mat& out, PyramidFilter filter, cv::Mat& scratch) {
   if (in.type() != CV_32FC1 || in.cols < 2 || in.rows < 2) {
     throw std::invalid_argument("downsample_intensity: expected CV_32FC1 of at least 2x2");
   }
@@ -58,27 +55,10 @@ void downsample_depth(const cv::Mat& in, cv::Mat& out, float max_relative_spread
   }
   const cv::Size s = half_size(in.size());
   out.create(s, CV_32FC1);
+  // It runs on every frame when the tracker uses the geometric residual.
   for (int y = 0; y < s.height; ++y) {
-    const float* r0 = in.ptr<float>(2 * y);
-    const float* r1 = in.ptr<float>(2 * y + 1);
-    float* o = out.ptr<float>(y);
-    // Branch-free (selects only) so that the compiler vectorises it: it runs on every frame
-    // when the tracker uses the geometric residual.
-    for (int x = 0; x < s.width; ++x) {
-      const float d[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
-      // Nearest valid depth of the block; !(v > 0) also rejects NaN.
-      float z_min = INFINITY;
-      for (float v : d) z_min = (v > 0.0F && v < INFINITY && v < z_min) ? v : z_min;
-      const float limit = z_min * (1.0F + max_relative_spread);
-      float sum = 0.0F;
-      float n = 0.0F;
-      for (float v : d) {
-        const bool use = v > 0.0F && v <= limit && v < INFINITY;
-        sum += use ? v : 0.0F;
-        n += use ? 1.0F : 0.0F;
-      }
-      o[x] = n > 0.0F ? sum / n : 0.0F;
-    }
+    kernels::depth_2x2_row(in.ptr<float>(2 * y), in.ptr<float>(2 * y + 1), out.ptr<float>(y),
+                           s.width, max_relative_spread);
   }
 }
 

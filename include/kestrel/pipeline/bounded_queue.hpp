@@ -98,7 +98,8 @@ class BoundedQueue {
  private:
   std::optional<T> take(std::unique_lock<std::mutex>& lock) {
     if (items_.empty()) return std::nullopt;
-    std::optional<T> out(std::move(items_.front()));
+    std::optional<T> out;
+    out.emplace(std::move(items_.front()));
     items_.pop_front();
     lock.unlock();
     not_full_.notify_one();

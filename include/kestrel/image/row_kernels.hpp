@@ -1,0 +1,45 @@
+// The per-row loops of the image front end that run on every frame: BGR to intensity (thesis
+// eq. 3.22), the 2x2 downsampling of the intensity and depth pyramids (thesis 3.10) and the
+// central-difference gradients. Each is written once in portable SIMD (Google Highway, the best
+// target of the CPU chosen at run time) and has one scalar reference (*_scalar) that the tests hold
+// it equal to, bit for bit.
+//
+// Why not plain loops: GCC vectorises these strided loops (3 or 2 interleaved inputs) only with
+// AVX2 or AVX-512 enabled at compile time, so a build without -march=native ran them 4-11x
+// slower (docs/onboard.md, "Portable release build").
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace kestrel::image::kernels {
+
+/// out[x] = (b + g + r) / (3 * 255) of the interleaved BGR bytes bgr[3x..3x+2], x in [0, width).
+void bgr_to_intensity_row(const std::uint8_t* bgr, float* out, int width);
+void bgr_to_intensity_row_scalar(const std::uint8_t* bgr, float* out, int width);
+
+/// out[x] = the mean of the 2x2 block of rows r0, r1 at columns 2x, 2x+1, x in [0, out_width).
+void mean_2x2_row(const float* r0, const float* r1, float* out, int out_width);
+void mean_2x2_row_scalar(const float* r0, const float* r1, float* out, int out_width);
+
+/// out[x] = the mean of the valid depths (finite, > 0) of the 2x2 block that lie within
+/// `max_relative_spread` of the block's nearest valid depth; 0 where the block has none.
+void depth_2x2_row(const float* r0, const float* r1, float* out, int out_width,
+                   float max_relative_spread);
+void depth_2x2_row_scalar(const float* r0, const float* r1, float* out, int out_width,
+                          float max_relative_spread);
+
+/// Central differences of row `mid` (rows `up` and `down` above and below it), x in [1, width-1):
+/// gx[x] = (mid[x+1] - mid[x-1]) / 2, gy[x] = (down[x] - up[x]) / 2. gx[0], gx[width-1], gy[0]
+/// and gy[width-1] are left as they are.
+void central_gradient_row(const float* up, const float* mid, const float* down, float* gx,
+                          float* gy, int width);
+void central_gradient_row_scalar(const float* up, const float* mid, const float* down, float* gx,
+                                 float* gy, int width);
+
+/// The SIMD target the row kernels dispatch to on this CPU (e.g. "AVX2", "NEON"), and every
+/// target compiled in that the CPU supports, best first (for tests and benchmarks).
+const char* simd_target();
+std::vector<std::int64_t> simd_targets();
+
+}  // namespace kestrel::image::kernels

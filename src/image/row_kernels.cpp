@@ -1,0 +1,192 @@
+// The image row kernels (row_kernels.hpp) in portable SIMD: Google Highway compiles this file
+// once per target (foreach_target.h re-includes it), and each public function calls the best
+// target the CPU supports (HWY_DYNAMIC_DISPATCH). The columns that do not fill a vector go to
+// the scalar references below. Every vector operation is the scalar reference's operation in
+// the same order, so that the results are equal bit for bit.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "row_kernels.cpp"  // NOLINT: this file, found by its folder
+#include "kestrel/image/row_kernels.hpp"
+
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <cmath>
+
+#ifndef KESTREL_IMAGE_ROW_KERNELS_SCALAR
+#define KESTREL_IMAGE_ROW_KERNELS_SCALAR
+namespace kestrel::image::kernels {
+
+inline constexpr float kIntensityScale = 1.0F / (3.0F * 255.0F);
+
+void bgr_to_intensity_row_scalar(const std::uint8_t* bgr, float* out, int width) {
+  for (int x = 0; x < width; ++x) {
+    const int sum = bgr[3 * x] + bgr[3 * x + 1] + bgr[3 * x + 2];
+    out[x] = static_cast<float>(sum) * kIntensityScale;
+  }
+}
+
+void mean_2x2_row_scalar(const float* r0, const float* r1, float* out, int out_width) {
+  for (int x = 0; x < out_width; ++x) {
+    out[x] = 0.25F * ((r0[2 * x] + r0[2 * x + 1]) + (r1[2 * x] + r1[2 * x + 1]));
+  }
+}
+
+void depth_2x2_row_scalar(const float* r0, const float* r1, float* out, int out_width,
+                          float max_relative_spread) {
+  for (int x = 0; x < out_width; ++x) {
+    const float d[4] = {r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]};
+    // The nearest valid depth of the block; !(v > 0) also rejects NaN.
+    float z_min = INFINITY;
+    for (const float v : d) z_min = (v > 0.0F && v < INFINITY && v < z_min) ? v : z_min;
+    const float limit = z_min * (1.0F + max_relative_spread);
+    float sum = 0.0F;
+    float n = 0.0F;
+    for (const float v : d) {
+      const bool use = v > 0.0F && v <= limit && v < INFINITY;
+      sum += use ? v : 0.0F;
+      n += use ? 1.0F : 0.0F;
+    }
+    out[x] = n > 0.0F ? sum / n : 0.0F;
+  }
+}
+
+void central_gradient_row_scalar(const float* up, const float* mid, const float* down, float* gx,
+                                 float* gy, int width) {
+  for (int x = 1; x < width - 1; ++x) {
+    gx[x] = 0.5F * (mid[x + 1] - mid[x - 1]);
+    gy[x] = 0.5F * (down[x] - up[x]);
+  }
+}
+
+}  // namespace kestrel::image::kernels
+#endif  // KESTREL_IMAGE_ROW_KERNELS_SCALAR
+
+HWY_BEFORE_NAMESPACE();
+namespace kestrel::image::kernels::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using DF = hn::ScalableTag<float>;
+using DI = hn::RebindToSigned<DF>;
+using DU8 = hn::Rebind<std::uint8_t, DF>;
+using VF = hn::Vec<DF>;
+
+void BgrToIntensityRow(const std::uint8_t* bgr, float* out, int width) {
+  const DF df;
+  const DI di;
+  const DU8 du8;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const VF scale = hn::Set(df, kIntensityScale);
+  int x = 0;
+  for (; x + n <= width; x += n) {
+    hn::Vec<DU8> b, g, r;
+    hn::LoadInterleaved3(du8, bgr + 3 * x, b, g, r);
+    const auto sum =
+        hn::Add(hn::Add(hn::PromoteTo(di, b), hn::PromoteTo(di, g)), hn::PromoteTo(di, r));
+    hn::StoreU(hn::Mul(hn::ConvertTo(df, sum), scale), df, out + x);
+  }
+  bgr_to_intensity_row_scalar(bgr + 3 * x, out + x, width - x);
+}
+
+void Mean2x2Row(const float* r0, const float* r1, float* out, int out_width) {
+  const DF df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const VF quarter = hn::Set(df, 0.25F);
+  int x = 0;
+  for (; x + n <= out_width; x += n) {
+    VF a0, b0, a1, b1;  // even (a) and odd (b) columns of each row
+    hn::LoadInterleaved2(df, r0 + 2 * x, a0, b0);
+    hn::LoadInterleaved2(df, r1 + 2 * x, a1, b1);
+    hn::StoreU(hn::Mul(quarter, hn::Add(hn::Add(a0, b0), hn::Add(a1, b1))), df, out + x);
+  }
+  mean_2x2_row_scalar(r0 + 2 * x, r1 + 2 * x, out + x, out_width - x);
+}
+
+void Depth2x2Row(const float* r0, const float* r1, float* out, int out_width,
+                 float max_relative_spread) {
+  const DF df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const VF zero = hn::Zero(df);
+  const VF one = hn::Set(df, 1.0F);
+  const VF inf = hn::Set(df, INFINITY);
+  const VF spread = hn::Set(df, 1.0F + max_relative_spread);
+  int x = 0;
+  for (; x + n <= out_width; x += n) {
+    VF d[4];
+    hn::LoadInterleaved2(df, r0 + 2 * x, d[0], d[1]);
+    hn::LoadInterleaved2(df, r1 + 2 * x, d[2], d[3]);
+    VF z_min = inf;
+    for (const VF& v : d) {
+      const auto valid = hn::And(hn::And(hn::Gt(v, zero), hn::Lt(v, inf)), hn::Lt(v, z_min));
+      z_min = hn::IfThenElse(valid, v, z_min);
+    }
+    const VF limit = hn::Mul(z_min, spread);
+    VF sum = zero;
+    VF count = zero;
+    for (const VF& v : d) {
+      const auto use = hn::And(hn::And(hn::Gt(v, zero), hn::Le(v, limit)), hn::Lt(v, inf));
+      sum = hn::Add(sum, hn::IfThenElseZero(use, v));
+      count = hn::Add(count, hn::IfThenElseZero(use, one));
+    }
+    // Divide by 1 where the block has no valid depth: no 0/0 lane, and its sum is 0 anyway.
+    const auto any = hn::Gt(count, zero);
+    const VF mean = hn::Div(sum, hn::IfThenElse(any, count, one));
+    hn::StoreU(hn::IfThenElseZero(any, mean), df, out + x);
+  }
+  depth_2x2_row_scalar(r0 + 2 * x, r1 + 2 * x, out + x, out_width - x, max_relative_spread);
+}
+
+void CentralGradientRow(const float* up, const float* mid, const float* down, float* gx, float* gy,
+                        int width) {
+  const DF df;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const VF half = hn::Set(df, 0.5F);
+  int x = 1;
+  for (; x + n <= width - 1; x += n) {
+    hn::StoreU(hn::Mul(half, hn::Sub(hn::LoadU(df, mid + x + 1), hn::LoadU(df, mid + x - 1))), df,
+               gx + x);
+    hn::StoreU(hn::Mul(half, hn::Sub(hn::LoadU(df, down + x), hn::LoadU(df, up + x))), df, gy + x);
+  }
+  // The columns left: the reference from x - 1, whose column x - 1 it does not write.
+  const int from = x - 1;
+  central_gradient_row_scalar(up + from, mid + from, down + from, gx + from, gy + from,
+                              width - from);
+}
+
+const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
+
+}  // namespace kestrel::image::kernels::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace kestrel::image::kernels {
+
+HWY_EXPORT(BgrToIntensityRow);
+HWY_EXPORT(Mean2x2Row);
+HWY_EXPORT(Depth2x2Row);
+HWY_EXPORT(CentralGradientRow);
+HWY_EXPORT(TargetName);
+
+void bgr_to_intensity_row(const std::uint8_t* bgr, float* out, int width) {
+  HWY_DYNAMIC_DISPATCH(BgrToIntensityRow)(bgr, out, width);
+}
+
+void mean_2x2_row(const float* r0, const float* r1, float* out, int out_width) {
+  HWY_DYNAMIC_DISPATCH(Mean2x2Row)(r0, r1, out, out_width);
+}
+
+void depth_2x2_row(const float* r0, const float* r1, float* out, int out_width,
+                   float max_relative_spread) {
+  HWY_DYNAMIC_DISPATCH(Depth2x2Row)(r0, r1, out, out_width, max_relative_spread);
+}
+
+void central_gradient_row(const float* up, const float* mid, const float* down, float* gx,
+                          float* gy, int width) {
+  HWY_DYNAMIC_DISPATCH(CentralGradientRow)(up, mid, down, gx, gy, width);
+}
+
+const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
+
+std::vector<std::int64_t> simd_targets() { return hwy::SupportedAndGeneratedTargets(); }
+
+}  // namespace kestrel::image::kernels
+#endif  // HWY_ONCE

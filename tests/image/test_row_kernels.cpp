@@ -1,0 +1,144 @@
+// The image row kernels on every SIMD target against their scalar references, bit for bit:
+// widths that do and do not fill the vectors, and depth rows full of the cases the reference
+// treats specially (0, negative, NaN, infinity, blocks at the spread limit).
+#include <gtest/gtest.h>
+#include <hwy/targets.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "kestrel/image/row_kernels.hpp"
+
+namespace kestrel::image::kernels {
+namespace {
+
+// Runs `body` on every SIMD target the kernels have for this CPU, naming it in any failure.
+template <class Body>
+void on_every_simd_target(Body&& body) {
+  for (const std::int64_t target : simd_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target));
+    ASSERT_STREQ(simd_target(), hwy::TargetName(target));  // the dispatch took it
+    body();
+  }
+  hwy::SetSupportedTargetsForTest(0);
+}
+
+// Bit patterns, so that NaN == NaN and -0 != +0.
+::testing::AssertionResult same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (std::memcmp(&a[i], &b[i], sizeof(float)) != 0) {
+      return ::testing::AssertionFailure() << "column " << i << ": " << a[i] << " vs " << b[i];
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// Widths from 1 to past two AVX-512 vectors, and a camera row.
+const std::vector<int> kWidths = {1, 3, 4, 7, 8, 15, 16, 17, 31, 33, 47, 64, 65, 320, 376};
+
+TEST(ImageRowKernels, BgrToIntensityEqualsTheScalarReference) {
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> byte(0, 255);
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      std::vector<std::uint8_t> bgr(3 * static_cast<std::size_t>(w));
+      for (auto& b : bgr) b = static_cast<std::uint8_t>(byte(rng));
+      if (w > 2) bgr[0] = bgr[1] = bgr[2] = 255;  // the largest sum
+      std::vector<float> simd(static_cast<std::size_t>(w), -1.0F), ref(simd);
+      bgr_to_intensity_row(bgr.data(), simd.data(), w);
+      bgr_to_intensity_row_scalar(bgr.data(), ref.data(), w);
+      EXPECT_TRUE(same_bits(simd, ref)) << "width " << w;
+      EXPECT_FLOAT_EQ(ref[0], static_cast<float>(bgr[0] + bgr[1] + bgr[2]) / 765.0F);
+    }
+  });
+}
+
+TEST(ImageRowKernels, Mean2x2EqualsTheScalarReference) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> value(0.0F, 1.0F);
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      std::vector<float> r0(2 * static_cast<std::size_t>(w)), r1(r0.size());
+      for (auto& v : r0) v = value(rng);
+      for (auto& v : r1) v = value(rng);
+      std::vector<float> simd(static_cast<std::size_t>(w), -1.0F), ref(simd);
+      mean_2x2_row(r0.data(), r1.data(), simd.data(), w);
+      mean_2x2_row_scalar(r0.data(), r1.data(), ref.data(), w);
+      EXPECT_TRUE(same_bits(simd, ref)) << "width " << w;
+      EXPECT_NEAR(ref[0], (r0[0] + r0[1] + r1[0] + r1[1]) / 4.0F, 1e-6F);
+    }
+  });
+}
+
+TEST(ImageRowKernels, Depth2x2EqualsTheScalarReferenceOnInvalidAndEdgeDepths) {
+  constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  constexpr float kSpread = 0.03F;
+  // Depths drawn from the special values and from near/far pairs that straddle the spread.
+  const std::vector<float> special = {0.0F,         -1.0F,  kNan, kInf, -kInf, 1.0F,
+                                      1.0F * 1.03F, 1.031F, 2.0F, 0.5F, 4.0F};
+  std::mt19937 rng(13);
+  std::uniform_int_distribution<std::size_t> pick(0, special.size() - 1);
+  std::uniform_real_distribution<float> near(0.98F, 1.05F);
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      std::vector<float> r0(2 * static_cast<std::size_t>(w)), r1(r0.size());
+      for (std::size_t i = 0; i < r0.size(); ++i) {
+        r0[i] = (i % 3 == 0) ? near(rng) : special[pick(rng)];
+        r1[i] = (i % 2 == 0) ? near(rng) : special[pick(rng)];
+      }
+      std::vector<float> simd(static_cast<std::size_t>(w), -1.0F), ref(simd);
+      depth_2x2_row(r0.data(), r1.data(), simd.data(), w, kSpread);
+      depth_2x2_row_scalar(r0.data(), r1.data(), ref.data(), w, kSpread);
+      EXPECT_TRUE(same_bits(simd, ref)) << "width " << w;
+      for (const float d : ref) EXPECT_TRUE(std::isfinite(d) && d >= 0.0F) << d;
+    }
+  });
+}
+
+TEST(ImageRowKernels, CentralGradientEqualsTheScalarReferenceAndKeepsTheBorder) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> value(0.0F, 1.0F);
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      if (w < 3) continue;
+      std::vector<float> up(static_cast<std::size_t>(w)), mid(up.size()), down(up.size());
+      for (auto* row : {&up, &mid, &down}) {
+        for (auto& v : *row) v = value(rng);
+      }
+      std::vector<float> gx(up.size(), -7.0F), gy(gx), ref_gx(gx), ref_gy(gx);
+      central_gradient_row(up.data(), mid.data(), down.data(), gx.data(), gy.data(), w);
+      central_gradient_row_scalar(up.data(), mid.data(), down.data(), ref_gx.data(), ref_gy.data(),
+                                  w);
+      EXPECT_TRUE(same_bits(gx, ref_gx)) << "width " << w;
+      EXPECT_TRUE(same_bits(gy, ref_gy)) << "width " << w;
+      // The border columns are the caller's: not written.
+      EXPECT_EQ(gx.front(), -7.0F);
+      EXPECT_EQ(gx.back(), -7.0F);
+      EXPECT_EQ(gy.back(), -7.0F);
+      EXPECT_FLOAT_EQ(ref_gx[1], 0.5F * (mid[2] - mid[0]));
+      EXPECT_FLOAT_EQ(ref_gy[1], 0.5F * (down[1] - up[1]));
+    }
+  });
+}
+
+TEST(ImageRowKernels, Depth2x2KnownBlocks) {
+  // Near 1.0 and 1.02 averaged; 2.0 beyond 3 % dropped; an all-invalid block gives 0.
+  const std::vector<float> r0 = {1.0F, 2.0F, 0.0F, std::nanf("")};
+  const std::vector<float> r1 = {1.02F, 0.0F, -1.0F, std::numeric_limits<float>::infinity()};
+  std::vector<float> out(2);
+  on_every_simd_target([&] {
+    depth_2x2_row(r0.data(), r1.data(), out.data(), 2, 0.03F);
+    EXPECT_FLOAT_EQ(out[0], (1.0F + 1.02F) / 2.0F);
+    EXPECT_EQ(out[1], 0.0F);
+  });
+}
+
+}  // namespace
+}  // namespace kestrel::image::kernels
