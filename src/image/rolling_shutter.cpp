@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "kestrel/geometry/so3.hpp"
+#include "kestrel/image/row_kernels.hpp"
 
 namespace kestrel::image {
 
@@ -26,37 +27,23 @@ void RollingShutterRectifier::set_rotation_rate(const Eigen::Vector3d& omega_rad
   const double v_mid = 0.5 * (H - 1);
   const double fx = camera_.fx(), fy = camera_.fy(), cx = camera_.cx(), cy = camera_.cy();
   const RadTanDistortion& d = camera_.distortion();
-  const auto k1 = static_cast<float>(d.k1), k2 = static_cast<float>(d.k2),
-             k3 = static_cast<float>(d.k3), p1 = static_cast<float>(d.p1),
-             p2 = static_cast<float>(d.p2);
-  const auto ffx = static_cast<float>(fx), ffy = static_cast<float>(fy),
-             fcx = static_cast<float>(cx), fcy = static_cast<float>(cy);
+  const kernels::DistortedPinhole cam{
+      static_cast<float>(fx),   static_cast<float>(fy),   static_cast<float>(cx),
+      static_cast<float>(cy),   static_cast<float>(d.k1), static_cast<float>(d.k2),
+      static_cast<float>(d.k3), static_cast<float>(d.p1), static_cast<float>(d.p2)};
   for (int v = 0; v < H; ++v) {
     const double s = readout_s_ * (v - v_mid) / H;
     // The source ray of (u, v) is M (xn(u), yn, 1) with M = exp(w s)^T: linear in xn, so a
     // row is the ray at u = 0 plus u times a constant step; then the lens distortion (thesis
-    // 2.2, PinholeCamera::distort). Plain float arithmetic: the loop vectorises.
+    // 2.2, PinholeCamera::distort), in float.
     const Eigen::Matrix3d M = SO3::exp(w * s).matrix().transpose();
     const double yn = (v - cy) / fy;
     const Eigen::Vector3d r0 = M.col(0) * (-cx / fx) + M.col(1) * yn + M.col(2);
     const Eigen::Vector3d dr = M.col(0) / fx;
-    const auto r0x = static_cast<float>(r0.x()), r0y = static_cast<float>(r0.y()),
-               r0z = static_cast<float>(r0.z());
-    const auto dx = static_cast<float>(dr.x()), dy = static_cast<float>(dr.y()),
-               dz = static_cast<float>(dr.z());
-    float* mx = map_x_.ptr<float>(v);
-    float* my = map_y_.ptr<float>(v);
-    for (int u = 0; u < W; ++u) {
-      const auto fu = static_cast<float>(u);
-      const float iz = 1.0F / (r0z + fu * dz);
-      const float x = (r0x + fu * dx) * iz, y = (r0y + fu * dy) * iz;
-      const float r2 = x * x + y * y;
-      const float radial = 1.0F + r2 * (k1 + r2 * (k2 + r2 * k3));
-      const float xd = x * radial + 2.0F * p1 * x * y + p2 * (r2 + 2.0F * x * x);
-      const float yd = y * radial + p1 * (r2 + 2.0F * y * y) + 2.0F * p2 * x * y;
-      mx[u] = ffx * xd + fcx;
-      my[u] = ffy * yd + fcy;
-    }
+    const kernels::RayRow ray{static_cast<float>(r0.x()), static_cast<float>(r0.y()),
+                              static_cast<float>(r0.z()), static_cast<float>(dr.x()),
+                              static_cast<float>(dr.y()), static_cast<float>(dr.z())};
+    kernels::distorted_ray_row(ray, cam, map_x_.ptr<float>(v), map_y_.ptr<float>(v), W);
   }
 }
 

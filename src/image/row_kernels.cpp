@@ -2,7 +2,8 @@
 // once per target (foreach_target.h re-includes it), and each public function calls the best
 // target the CPU supports (HWY_DYNAMIC_DISPATCH). The columns that do not fill a vector go to
 // the scalar references below. Every vector operation is the scalar reference's operation in
-// the same order, so that the results are equal bit for bit.
+// the same order, so that the results are equal bit for bit (but for the rolling-shutter map,
+// whose multiply-adds may round once where the reference rounds twice).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "row_kernels.cpp"  // NOLINT: this file, found by its folder
 #include "kestrel/image/row_kernels.hpp"
@@ -56,6 +57,31 @@ void central_gradient_row_scalar(const float* up, const float* mid, const float*
     gx[x] = 0.5F * (mid[x + 1] - mid[x - 1]);
     gy[x] = 0.5F * (down[x] - up[x]);
   }
+}
+
+namespace {
+
+// Columns [from, width) of distorted_ray_row_scalar: the SIMD version's last columns.
+void distorted_ray_columns(const RayRow& ray, const DistortedPinhole& cam, float* map_x,
+                           float* map_y, int from, int width) {
+  for (int u = from; u < width; ++u) {
+    const auto fu = static_cast<float>(u);
+    const float iz = 1.0F / (ray.r0z + fu * ray.dz);
+    const float x = (ray.r0x + fu * ray.dx) * iz, y = (ray.r0y + fu * ray.dy) * iz;
+    const float r2 = x * x + y * y;
+    const float radial = 1.0F + r2 * (cam.k1 + r2 * (cam.k2 + r2 * cam.k3));
+    const float xd = x * radial + 2.0F * cam.p1 * x * y + cam.p2 * (r2 + 2.0F * x * x);
+    const float yd = y * radial + cam.p1 * (r2 + 2.0F * y * y) + 2.0F * cam.p2 * x * y;
+    map_x[u] = cam.fx * xd + cam.cx;
+    map_y[u] = cam.fy * yd + cam.cy;
+  }
+}
+
+}  // namespace
+
+void distorted_ray_row_scalar(const RayRow& ray, const DistortedPinhole& cam, float* map_x,
+                              float* map_y, int width) {
+  distorted_ray_columns(ray, cam, map_x, map_y, 0, width);
 }
 
 }  // namespace kestrel::image::kernels
@@ -152,6 +178,43 @@ void CentralGradientRow(const float* up, const float* mid, const float* down, fl
                               width - from);
 }
 
+void DistortedRayRow(const RayRow& ray, const DistortedPinhole& cam, float* map_x, float* map_y,
+                     int width) {
+  const DF df;
+  const DI di;
+  const int n = static_cast<int>(hn::Lanes(df));
+  // Every constant in a register before the loop: the stores to the maps could alias `ray` and
+  // `cam` for the compiler, which would reload them on every vector otherwise.
+  const VF r0x = hn::Set(df, ray.r0x), r0y = hn::Set(df, ray.r0y), r0z = hn::Set(df, ray.r0z);
+  const VF dx = hn::Set(df, ray.dx), dy = hn::Set(df, ray.dy), dz = hn::Set(df, ray.dz);
+  const VF k1 = hn::Set(df, cam.k1), k2 = hn::Set(df, cam.k2), k3 = hn::Set(df, cam.k3);
+  const VF two_p1 = hn::Set(df, 2.0F * cam.p1), p1 = hn::Set(df, cam.p1);
+  const VF two_p2 = hn::Set(df, 2.0F * cam.p2), p2 = hn::Set(df, cam.p2);
+  const VF fx = hn::Set(df, cam.fx), fy = hn::Set(df, cam.fy);
+  const VF cx = hn::Set(df, cam.cx), cy = hn::Set(df, cam.cy);
+  const VF one = hn::Set(df, 1.0F), two = hn::Set(df, 2.0F);
+  // The column numbers as floats, stepped by n (exact integers: no rounding drift). Iota in the
+  // loop went through a store and a wider load each time, which stalled store forwarding.
+  const VF step = hn::Set(df, static_cast<float>(n));
+  VF fu = hn::ConvertTo(df, hn::Iota(di, 0));
+  int u = 0;
+  for (; u + n <= width; u += n, fu = hn::Add(fu, step)) {
+    const VF iz = hn::Div(one, hn::MulAdd(fu, dz, r0z));
+    const VF x = hn::Mul(hn::MulAdd(fu, dx, r0x), iz);
+    const VF y = hn::Mul(hn::MulAdd(fu, dy, r0y), iz);
+    const VF r2 = hn::MulAdd(x, x, hn::Mul(y, y));
+    const VF radial = hn::MulAdd(r2, hn::MulAdd(r2, hn::MulAdd(r2, k3, k2), k1), one);
+    const VF xy = hn::Mul(x, y);
+    const VF xd = hn::MulAdd(
+        x, radial, hn::MulAdd(two_p1, xy, hn::Mul(p2, hn::MulAdd(two, hn::Mul(x, x), r2))));
+    const VF yd = hn::MulAdd(
+        y, radial, hn::MulAdd(p1, hn::MulAdd(two, hn::Mul(y, y), r2), hn::Mul(two_p2, xy)));
+    hn::StoreU(hn::MulAdd(fx, xd, cx), df, map_x + u);
+    hn::StoreU(hn::MulAdd(fy, yd, cy), df, map_y + u);
+  }
+  distorted_ray_columns(ray, cam, map_x, map_y, u, width);
+}
+
 const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
 
 }  // namespace kestrel::image::kernels::HWY_NAMESPACE
@@ -164,6 +227,7 @@ HWY_EXPORT(BgrToIntensityRow);
 HWY_EXPORT(Mean2x2Row);
 HWY_EXPORT(Depth2x2Row);
 HWY_EXPORT(CentralGradientRow);
+HWY_EXPORT(DistortedRayRow);
 HWY_EXPORT(TargetName);
 
 void bgr_to_intensity_row(const std::uint8_t* bgr, float* out, int width) {
@@ -182,6 +246,11 @@ void depth_2x2_row(const float* r0, const float* r1, float* out, int out_width,
 void central_gradient_row(const float* up, const float* mid, const float* down, float* gx,
                           float* gy, int width) {
   HWY_DYNAMIC_DISPATCH(CentralGradientRow)(up, mid, down, gx, gy, width);
+}
+
+void distorted_ray_row(const RayRow& ray, const DistortedPinhole& cam, float* map_x, float* map_y,
+                       int width) {
+  HWY_DYNAMIC_DISPATCH(DistortedRayRow)(ray, cam, map_x, map_y, width);
 }
 
 const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }

@@ -128,6 +128,32 @@ TEST(ImageRowKernels, CentralGradientEqualsTheScalarReferenceAndKeepsTheBorder) 
   });
 }
 
+TEST(ImageRowKernels, DistortedRayRowEqualsTheScalarReferenceWithinFloatRounding) {
+  // fr1's Kinect (strong distortion) and rays of a rotated row, as RollingShutterRectifier makes.
+  const DistortedPinhole cam{517.3F,   516.5F,  318.6F,   255.3F, 0.2624F,
+                             -0.9531F, 1.1633F, -0.0054F, 0.0026F};
+  const RayRow ray{-0.62F, -0.45F, 1.01F, 1.0F / 517.3F, 2e-5F, -3e-5F};
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      std::vector<float> mx(static_cast<std::size_t>(w)), my(mx), ref_x(mx), ref_y(mx);
+      distorted_ray_row(ray, cam, mx.data(), my.data(), w);
+      distorted_ray_row_scalar(ray, cam, ref_x.data(), ref_y.data(), w);
+      for (int u = 0; u < w; ++u) {
+        // A few float roundings of pixel coordinates of up to ~700: 1e-3 px is ~10 ulp there.
+        ASSERT_NEAR(mx[u], ref_x[u], 1e-3F) << "width " << w << " u " << u;
+        ASSERT_NEAR(my[u], ref_y[u], 1e-3F) << "width " << w << " u " << u;
+      }
+    }
+    // The centre of the ray at u = 0, checked by hand: undistorted x = -0.62 / 1.01.
+    std::vector<float> mx(1), my(1);
+    distorted_ray_row_scalar(ray, cam, mx.data(), my.data(), 1);
+    const double x = -0.62 / 1.01, y = -0.45 / 1.01, r2 = x * x + y * y;
+    const double radial = 1 + r2 * (0.2624 + r2 * (-0.9531 + r2 * 1.1633));
+    const double xd = x * radial + 2 * -0.0054 * x * y + 0.0026 * (r2 + 2 * x * x);
+    EXPECT_NEAR(mx[0], 517.3 * xd + 318.6, 1e-3);
+  });
+}
+
 TEST(ImageRowKernels, Depth2x2KnownBlocks) {
   // Near 1.0 and 1.02 averaged; 2.0 beyond 3 % dropped; an all-invalid block gives 0.
   const std::vector<float> r0 = {1.0F, 2.0F, 0.0F, std::nanf("")};

@@ -37,6 +37,21 @@ void central_gradient_row(const float* up, const float* mid, const float* down, 
 void central_gradient_row_scalar(const float* up, const float* mid, const float* down, float* gx,
                                  float* gy, int width);
 
+/// One row of a rolling-shutter rectification map: for u in [0, width) the ray
+/// (r0 + u dr) is projected (x = X/Z, y = Y/Z), distorted with the radial-tangential model
+/// (thesis 2.2; k = {k1, k2, k3}, p = {p1, p2}) and mapped to pixels with (f, c). Equal to the
+/// scalar reference within float rounding (the two may contract a*b+c into an FMA differently).
+struct RayRow {
+  float r0x, r0y, r0z, dx, dy, dz;
+};
+struct DistortedPinhole {
+  float fx, fy, cx, cy, k1, k2, k3, p1, p2;
+};
+void distorted_ray_row(const RayRow& ray, const DistortedPinhole& cam, float* map_x, float* map_y,
+                       int width);
+void distorted_ray_row_scalar(const RayRow& ray, const DistortedPinhole& cam, float* map_x,
+                              float* map_y, int width);
+
 /// The SIMD target the row kernels dispatch to on this CPU (e.g. "AVX2", "NEON"), and every
 /// target compiled in that the CPU supports, best first (for tests and benchmarks).
 const char* simd_target();
