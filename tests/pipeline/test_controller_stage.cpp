@@ -88,6 +88,7 @@ TEST(ControllerStage, StatesThatStopGiveTheWatchdogFailsafeThenMotorsOff) {
   EXPECT_EQ(r->pwm, last.pwm);
   // Past it: level, the descent fraction of the hover thrust it had learnt.
   r = stage.on_silence(at(w.command_timeout_s + 0.05));
+  ASSERT_TRUE(r.has_value());
   EXPECT_EQ(r->watchdog, control::WatchdogState::kTripped);
   EXPECT_NEAR(r->command.roll_rad, 0.0, 1e-12);
   EXPECT_NEAR(r->command.thrust_N, w.descent_thrust_fraction * w.hover_thrust_N, 1e-6);
@@ -95,6 +96,7 @@ TEST(ControllerStage, StatesThatStopGiveTheWatchdogFailsafeThenMotorsOff) {
   EXPECT_FALSE(r->motors_off);
   // After the descent time: cut off.
   r = stage.on_silence(at(w.command_timeout_s + w.descent_max_s + 0.1));
+  ASSERT_TRUE(r.has_value());
   EXPECT_EQ(r->watchdog, control::WatchdogState::kCutOff);
   EXPECT_TRUE(r->motors_off);
   EXPECT_EQ(r->pwm, stage.mapper().motors_off());

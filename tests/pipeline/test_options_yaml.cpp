@@ -26,13 +26,14 @@ std::string read_back(const Options& o, const char* what) {
 }
 
 TEST(PipelineOptionsYaml, DefaultsRoundTrip) {
-  const std::string yaml = PipelineOptions{}.to_yaml();
+  const PipelineOptions defaults;
+  const std::string yaml = defaults.to_yaml();
   EXPECT_NE(yaml.find("source: folder\ninput: \"\"\ncamera:\n  device: /dev/video0\n"),
             std::string::npos)
       << yaml;
   EXPECT_NE(yaml.find("\ncontroller:\n  setpoint: hold\n"), std::string::npos) << yaml;
   EXPECT_EQ(yaml.find("drop_stale"), std::string::npos) << yaml;  // unset: by pace and source
-  EXPECT_EQ(read_back(PipelineOptions{}, "pipeline"), yaml);
+  EXPECT_EQ(read_back(defaults, "pipeline"), yaml);
 }
 
 TEST(PipelineOptionsYaml, ChangedBlocksRoundTrip) {
