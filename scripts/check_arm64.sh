@@ -5,9 +5,10 @@
 #
 #   scripts/check_arm64.sh [--quick | --full] [--jobs N]
 #
-#   --quick  the SIMD kernel tests only (target test_odometry_kernels): what CI runs
-#   --full   (default) the kernel, odometry (RGB-D and stereo), sensor (stereo matching, front
-#            end) and fusion tests
+#   --quick  the SIMD kernel tests only (test_odometry_kernels, test_image_kernels,
+#            test_sensor_kernels): what CI runs
+#   --full   (default) the kernel, image, odometry (RGB-D and stereo), sensor (stereo matching,
+#            front end) and fusion tests
 #
 # Steps, each printed as it starts:
 #   1. host tools: g++-aarch64-linux-gnu and qemu-user-static from apt (nothing else of the host
@@ -223,11 +224,12 @@ fi
 # ---------------------------------------------------------------------------------------------
 # What each set builds and runs (CTest labels: one per test executable, tests/CMakeLists.txt).
 if [ "$mode" = quick ]; then
-  targets=(test_odometry_kernels)
-  labels='^odometry_kernels$'
+  targets=(test_odometry_kernels test_image_kernels test_sensor_kernels)
+  labels='^(odometry|image|sensor)_kernels$'
 else
-  targets=(test_odometry_kernels test_odometry test_sensor test_fusion)
-  labels='^(odometry_kernels|odometry|sensor|fusion)$'
+  targets=(test_odometry_kernels test_image_kernels test_sensor_kernels test_image test_odometry
+           test_sensor test_fusion)
+  labels='^(odometry_kernels|image_kernels|sensor_kernels|image|odometry|sensor|fusion)$'
 fi
 # Tests that run the arm64 `kestrel` binary through /bin/sh: the host kernel can start it only
 # when binfmt_misc hands aarch64 ELF files to qemu (qemu-user-static registers that on a machine

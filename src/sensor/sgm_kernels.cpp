@@ -220,7 +220,10 @@ void aggregate(const AggregateRowArgs& a) {
   row_penalties<NV>(a, a.p2_scratch);
   const std::uint16_t* h_prev = a.horizontal + kSgmGuard;  // the masked slot
   std::uint16_t h_min = kSgmMaskedCost;
-  PixelPaths<NV + 1> p;
+  // Aggregate-initialised ({}), not default-constructed: GCC on AArch64 compiles the implicit
+  // constructor of a struct of vectors outside Highway's NEON target pragma and then refuses to
+  // inline the vectors' always_inline constructors (Highway issue 834, fixed after 1.0.3).
+  PixelPaths<NV + 1> p{};
   for (int i = 0; i < a.width; ++i) {
     const int x = x0 + i * a.step;
     std::uint16_t* h_cur = a.horizontal + (1 + (i & 1)) * stride + kSgmGuard;

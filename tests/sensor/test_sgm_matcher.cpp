@@ -1,15 +1,12 @@
 // The semi-global matcher: known answers on synthetic pairs (a shifted random-dot pair gives the
-// exact disparity, a square in front of a plane keeps both), the SIMD kernels against the scalar
-// reference on every SIMD target of this CPU (bit for bit), and bad options rejected with a
-// message naming the field.
+// exact disparity, a square in front of a plane keeps both) and bad options rejected with a
+// message naming the field. Its SIMD kernels against the scalar reference:
+// test_matcher_kernels.cpp.
 #include <gtest/gtest.h>
-#include <hwy/targets.h>
 
-#include <cstring>
 #include <fstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -18,31 +15,14 @@
 #include "kestrel/sensor/sgm_matcher.hpp"
 #include "kestrel/sensor/stereo_front_end.hpp"
 #include "kestrel/sensor/stereo_matcher.hpp"
+#include "synthetic_stereo.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::sensor {
 namespace {
 
-/// Random dots: every pixel an independent uniform grey level (blurred a little when
-/// `sigma` > 0).
-cv::Mat random_dots(int w, int h, std::uint64_t seed, double sigma = 0.0) {
-  cv::Mat m(h, w, CV_8UC1);
-  std::mt19937_64 rng(seed);
-  std::uniform_int_distribution<int> u(0, 255);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) m.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(u(rng));
-  }
-  if (sigma > 0.0) cv::GaussianBlur(m, m, cv::Size(0, 0), sigma);
-  return m;
-}
-
-/// A pair whose true left disparity is `d` everywhere: left(x) = right(x - d), the right view
-/// seeing `d` more columns on its right (so left pixels x < d have no match).
-void shifted_pair(const cv::Mat& wide, int d, cv::Mat& left, cv::Mat& right) {
-  const int w = wide.cols - d;
-  left = wide(cv::Rect(0, 0, w, wide.rows)).clone();
-  right = wide(cv::Rect(d, 0, w, wide.rows)).clone();
-}
+using synthetic::random_dots;
+using synthetic::shifted_pair;
 
 TEST(SgmMatcher, ShiftedRandomDotsGiveTheExactDisparity) {
   for (const int paths : {4, 8}) {
@@ -124,71 +104,6 @@ TEST(SgmMatcher, LeftRightCheckDropsTheOccludedStrip) {
   }
   EXPECT_LT(kept, 40 * 12 / 4) << s.describe();
   EXPECT_GT(s.rejected_lr, 300U);
-}
-
-/// Every option set the kernels branch on: paths, census patterns, ranges that are not a
-/// multiple of a vector, a minimum disparity, odd widths.
-std::vector<SgmOptions> kernel_option_sets() {
-  std::vector<SgmOptions> sets;
-  SgmOptions o;
-  sets.push_back(o);
-  o.lr_max_diff = 1;
-  sets.push_back(o);
-  o.paths = 4;
-  o.min_disparity = 3;
-  o.max_disparity = 40;
-  sets.push_back(o);
-  o.paths = 8;
-  o.census = CensusPattern::kFull;
-  o.census_width = 5;
-  o.census_height = 5;
-  o.p2_gradient = 0;
-  o.min_disparity = 0;
-  o.max_disparity = 16;
-  sets.push_back(o);
-  o.census_width = 7;
-  o.census_height = 3;
-  o.max_disparity = 97;
-  o.lr_max_diff = 2;
-  o.speckle_size = 20;
-  sets.push_back(o);
-  return sets;
-}
-
-bool same_bits(const cv::Mat& a, const cv::Mat& b) {
-  if (a.size() != b.size() || a.type() != b.type()) return false;
-  for (int y = 0; y < a.rows; ++y) {
-    if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
-  }
-  return true;
-}
-
-TEST(SgmMatcher, SimdKernelsMatchTheScalarReferenceOnEveryTarget) {
-  const std::vector<std::int64_t> targets = SgmMatcher::simd_targets();
-  ASSERT_FALSE(targets.empty());
-  const cv::Mat wide = random_dots(173 + 30, 61, 21, 1.0);
-  cv::Mat l, r;
-  shifted_pair(wide, 9, l, r);
-  cv::Mat noise = random_dots(l.cols, l.rows, 22);
-  cv::addWeighted(r, 0.9, noise, 0.1, 0.0, r);  // not an exact copy: costs vary
-  for (const SgmOptions& o : kernel_option_sets()) {
-    SgmMatcher reference(o);
-    reference.set_reference(true);
-    cv::Mat expected;
-    const MatchStats es = reference.match(l, r, expected);
-    for (const std::int64_t target : targets) {
-      hwy::SetSupportedTargetsForTest(target);
-      SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target) + ", " + o.describe());
-      ASSERT_STREQ(SgmMatcher::simd_target(), hwy::TargetName(target));
-      SgmMatcher simd(o);
-      cv::Mat got;
-      const MatchStats gs = simd.match(l, r, got);
-      EXPECT_TRUE(same_bits(got, expected));
-      EXPECT_EQ(gs.valid, es.valid);
-      EXPECT_EQ(gs.rejected_lr, es.rejected_lr);
-    }
-    hwy::SetSupportedTargetsForTest(0);
-  }
 }
 
 std::string options_error(const SgmOptions& o) {
