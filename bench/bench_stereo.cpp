@@ -3,7 +3,7 @@
 // the 2014 training scenes, scored on their non-occluded pixels): bad-pixel rate (> 1 px or
 // missing, over pixels with known truth) and fill; the speed per 752x480 EuRoC pair (64
 // disparities, block 9, rectification excluded) and the fill rate over the EuRoC V1_01 part.
-// Usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]
+// Usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed] [--row NAME]
 #include <hwy/targets.h>
 
 #include <algorithm>
@@ -196,11 +196,13 @@ void print_time(const char* name, std::pair<double, double> t) {
 
 void print_usage(std::FILE* to) {
   std::fprintf(to,
-               "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed]\n"
+               "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed] [--row NAME]\n"
                "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy}, middlebury2014/<scene>\n"
                "            and euroc/V1_01_easy_part1 (default: %s)\n"
                "  --quick   5 EuRoC pairs and 5 timing repeats instead of all pairs and 30\n"
                "  --speed   Kestrel's speed rows only (no Middlebury, no peers, no fill rate)\n"
+               "  --row NAME  with --speed: that speed row only (e.g. 'kestrel census'), to\n"
+               "            profile one matcher (scripts/instruction_counts.sh)\n"
                "  --help    this text\n",
                KESTREL_DEFAULT_DATA_DIR);
 }
@@ -272,7 +274,7 @@ void print_middlebury_table(const std::vector<Peer>& peers, const fs::path& data
   }
 }
 
-int run(const fs::path& data, bool quick, bool speed_only) {
+int run(const fs::path& data, bool quick, bool speed_only, const std::string& only_row) {
   cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
   using kestrel::sensor::MatchingCost;
 
@@ -317,15 +319,26 @@ int run(const fs::path& data, bool quick, bool speed_only) {
   std::printf("speed, %dx%d, %d disparities, block %d, one thread (median of %d), SIMD %s:\n",
               l0.cols, l0.rows, num, kBlock, repeats,
               kestrel::sensor::block_matching_simd_target());
-  print_time("kestrel sad", time_ms([&] { sad.match(l0, r0, d); }, repeats));
-  print_time("kestrel sad dense", time_ms([&] { sad_dense.match(l0, r0, d); }, repeats));
-  print_time("kestrel census", time_ms([&] { census.match(l0, r0, d); }, repeats));
+  bool row_found = false;
+  const auto row = [&](const char* name, const std::function<void()>& f) {
+    if (!only_row.empty() && only_row != name) return;
+    row_found = true;
+    print_time(name, time_ms(f, repeats));
+  };
+  row("kestrel sad", [&] { sad.match(l0, r0, d); });
+  row("kestrel sad dense", [&] { sad_dense.match(l0, r0, d); });
+  row("kestrel census", [&] { census.match(l0, r0, d); });
   // The general scan (more than 64 lanes): 128 disparities, block 15.
   BlockMatcher sad_wide(kestrel_options(128, MatchingCost::kSad, true, 15));
-  print_time("kestrel sad 128 blk 15", time_ms([&] { sad_wide.match(l0, r0, d); }, repeats));
-  print_time("kestrel sgm", time_ms([&] { sgm.match(l0, r0, d); }, repeats));
-  print_time("kestrel sgm lr", time_ms([&] { sgm_lr.match(l0, r0, d); }, repeats));
+  row("kestrel sad 128 blk 15", [&] { sad_wide.match(l0, r0, d); });
+  row("kestrel sgm", [&] { sgm.match(l0, r0, d); });
+  row("kestrel sgm lr", [&] { sgm_lr.match(l0, r0, d); });
   std::printf("  (kestrel sgm kernels: %s)\n", SgmMatcher::simd_target());
+  if (!row_found) {
+    throw std::invalid_argument("--row '" + only_row +
+                                "': no such speed row (kestrel sad, kestrel sad dense, kestrel "
+                                "census, kestrel sad 128 blk 15, kestrel sgm, kestrel sgm lr)");
+  }
   if (speed_only) return 0;
   print_time("opencv StereoBM", time_ms([&] { bm->compute(l0, r0, d16); }, repeats));
   print_time("opencv StereoSGBM",
@@ -353,12 +366,15 @@ int run(const fs::path& data, bool quick, bool speed_only) {
 int main(int argc, char** argv) {
   fs::path data = KESTREL_DEFAULT_DATA_DIR;
   bool quick = false, speed_only = false, have_data = false;
+  std::string only_row;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--quick") {
       quick = true;
     } else if (arg == "--speed") {
       speed_only = true;
+    } else if (arg == "--row" && i + 1 < argc) {
+      only_row = argv[++i];
     } else if (arg == "--help" || arg == "-h") {
       print_usage(stdout);
       return 0;
@@ -377,7 +393,11 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    return run(data, quick, speed_only);
+    if (!only_row.empty() && !speed_only) {
+      std::fprintf(stderr, "kestrel_bench_stereo: error: --row needs --speed\n");
+      return 2;
+    }
+    return run(data, quick, speed_only, only_row);
   } catch (const kestrel::InputError& e) {
     std::fprintf(stderr, "kestrel_bench_stereo: error: %s\n", e.what());
     return 1;
