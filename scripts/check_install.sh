@@ -8,7 +8,8 @@
 #      and give the poses of the installed `kestrel odometry` (skipped, saying so, without it);
 #   4. `import kestrel` from the install tree (when the Python module was built);
 #   5. `cpack -G DEB`: the package's Depends resolve (`apt-get install --simulate`),
-#      `kestrel --help` runs from the unpacked package and examples/downstream builds against it.
+#      `kestrel --help` runs from the unpacked package and examples/downstream builds against it
+#      (without the CUDA toolkit, as on a plain Debian machine).
 # Work files go to build/<preset>/check_install/ (fixed paths: ccache finds the downstream
 # compiles again). Exits non-zero on the first failure.
 set -euo pipefail
@@ -116,9 +117,11 @@ apt-get install --simulate "$deb" >"$work/apt.log" 2>&1 ||
 grep -E "^Inst kestrel " "$work/apt.log" || die "apt-get --simulate would not install kestrel"
 dpkg -x "$deb" "$work/deb"
 "$work/deb/usr/bin/kestrel" --help >/dev/null || die "kestrel --help from the unpacked package"
-# The package's own CMake package (relocatable: found under the unpacked /usr too).
+# The package's own CMake package (relocatable: found under the unpacked /usr too), as on a
+# Debian machine without the CUDA toolkit (CMAKE_DISABLE_FIND_PACKAGE_CUDAToolkit).
 cmake -S examples/downstream -B "$work/downstream_deb" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_PREFIX_PATH="$work/deb/usr" "${launcher[@]}" >"$work/downstream_deb.log" 2>&1 &&
+  -DCMAKE_PREFIX_PATH="$work/deb/usr" -DCMAKE_DISABLE_FIND_PACKAGE_CUDAToolkit=ON \
+  "${launcher[@]}" >"$work/downstream_deb.log" 2>&1 &&
   cmake --build "$work/downstream_deb" >>"$work/downstream_deb.log" 2>&1 ||
   { tail -30 "$work/downstream_deb.log" >&2; die "examples/downstream against the package"; }
 grep -q "$work/deb/usr/lib/cmake/Kestrel" "$work/downstream_deb/CMakeCache.txt" ||
