@@ -19,8 +19,13 @@ function(kestrel_add_module name)
   endif()
   add_library(kestrel_${name} STATIC ${ARG_SOURCES})
   add_library(kestrel::${name} ALIAS kestrel_${name})
-  target_include_directories(kestrel_${name} PUBLIC ${PROJECT_SOURCE_DIR}/include)
-  target_link_libraries(kestrel_${name} PUBLIC ${ARG_DEPS} PRIVATE kestrel_options)
+  # Installed, the module is Kestrel::<name> (cmake/KestrelInstall.cmake) and finds its headers
+  # under the prefix; the warning flags stay Kestrel's own (BUILD_INTERFACE), never a user's.
+  set_target_properties(kestrel_${name} PROPERTIES EXPORT_NAME ${name})
+  target_include_directories(kestrel_${name} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include> $<INSTALL_INTERFACE:include>)
+  target_link_libraries(kestrel_${name} PUBLIC ${ARG_DEPS}
+                                        PRIVATE $<BUILD_INTERFACE:kestrel_options>)
   kestrel_register_module(${name} ${ARG_KIND} "${ARG_DEPS}")
 endfunction()
 

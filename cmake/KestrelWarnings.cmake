@@ -10,6 +10,10 @@ target_compile_options(kestrel_options INTERFACE
 if(CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
   target_compile_options(kestrel_options INTERFACE -Wno-double-promotion)
 endif()
+# With -fPIC (CMAKE_POSITION_INDEPENDENT_CODE, for the Python module) GCC assumes any exported
+# function may be replaced at load time and stops inlining and cloning calls between them;
+# Kestrel's functions are never interposed, so keep the code of a non-PIC build.
+target_compile_options(kestrel_options INTERFACE -fno-semantic-interposition)
 if(KESTREL_NATIVE)
   target_compile_options(kestrel_options INTERFACE -march=native)
   # GCC 12 flags Eigen's unaligned AVX packet loads of fixed-size vectors (e.g. a Vector3d

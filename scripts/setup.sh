@@ -15,6 +15,9 @@ packages=(
   libbenchmark-dev         # bench/
   clang-14 libclang-rt-14-dev llvm-14  # fuzz/: libFuzzer, ASan/UBSan runtimes, llvm-symbolizer
   libopen3d-dev            # bench/: Open3D's RGB-D odometry, a peer in scripts/bench_odometry.sh
+  # the Python module (python/): pybind11, the interpreter's headers, numpy, pytest (its tests)
+  pybind11-dev python3-dev python3-pybind11 python3-numpy python3-pytest
+  doxygen                  # the API reference and its no-warnings test (docs/api.md)
   # ROS 1 node (src/ros, optional): roscpp, rosbag, messages, tf2_ros, cv_bridge,
   # image_transport, and rosmaster for the tests' loopback master (~120 packages, ~45 s)
   libroscpp-dev librosbag-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev

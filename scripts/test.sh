@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Installs what is needed, builds, and runs every test: the release build, then the asan
-# preset (AddressSanitizer + UndefinedBehaviorSanitizer), then the SIMD kernel tests built for
-# aarch64 and run under qemu (scripts/check_arm64.sh --quick; KESTREL_ARM64=full or 0), then
-# every fuzz target of fuzz/ for a bounded time (scripts/fuzz.sh: KESTREL_FUZZ_SECONDS each,
-# default 60, two at once; 0 skips them). Exits non-zero on any failure or fuzzing finding.
+# preset (AddressSanitizer + UndefinedBehaviorSanitizer), then the install, downstream and
+# package checks of the release build (scripts/check_install.sh), then the SIMD kernel tests
+# built for aarch64 and run under qemu (scripts/check_arm64.sh --quick; KESTREL_ARM64=full or
+# 0), then every fuzz target of fuzz/ for a bounded time (scripts/fuzz.sh:
+# KESTREL_FUZZ_SECONDS each, default 60, two at once; 0 skips them). Exits non-zero on any
+# failure or fuzzing finding.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -14,6 +16,11 @@ for preset in release asan; do
   echo "=== test: $preset ==="
   ctest --preset "$preset" -j "$(nproc)"
 done
+# What a user gets: install the release build, build examples/downstream against it (CMake and
+# pkg-config) and run it on the dev data, import the Python module from the install, build the
+# .deb and check that its dependencies resolve (scripts/check_install.sh).
+echo "=== install, downstream example, Debian package ==="
+scripts/check_install.sh release
 # The on-board code on 64-bit ARM: the SIMD kernel tests cross-compiled for aarch64 and run
 # under qemu-aarch64, NEON included (scripts/check_arm64.sh; KESTREL_ARM64=full runs the
 # odometry, stereo and fusion tests too, 0 skips it).

@@ -19,7 +19,7 @@ namespace kestrel::driver {
 struct RecorderOptions {
   /// What the PNGs hold: grey (EuRoC's convention, default), colour, or the raw mosaics.
   ViewKind images = ViewKind::kGray;
-  /// Also keep every packed frame, rows unpadded (2 * width bytes each), as raw/<t_ns>.bin:
+  /// Also keep every packed frame, rows unpadded (2 * width bytes each), as `raw/<t_ns>.bin`:
   /// `kestrel capture --decode-file` decodes one again with other options.
   bool raw = false;
   /// PNG deflate level 0..9: 1 keeps up with 30 Hz stereo on one core.
@@ -31,9 +31,9 @@ struct RecorderOptions {
 };
 
 /// Writes folder `dir`:
-///   mav0/cam0/data/<t_ns>.png (left), mav0/cam1/data/<t_ns>.png (right),
+///   `mav0/cam0/data/<t_ns>.png` (left), `mav0/cam1/data/<t_ns>.png` (right),
 ///   mav0/cam{0,1}/data.csv ("#timestamp [ns],filename", after the provenance line),
-///   raw/<t_ns>.bin when RecorderOptions::raw.
+///   `raw/<t_ns>.bin` when RecorderOptions::raw.
 /// The folder is claimed with io::claim_output_dir(dir, "capture", force); a previous capture's
 /// frames in it are removed first, so no stale frames remain.
 class StereoRecorder {

@@ -42,7 +42,7 @@ std::vector<AxisErrorSample> compute_axis_errors(const Trajectory& gt, const Tra
                                                  const AteResult& ate);
 
 /// CSV with t_ns, t_s (seconds since t0_ns) and for each of x, y, z (m) and roll, pitch, yaw
-/// (deg) the columns <axis>_gt, <axis>_est, <axis>_err; provenance line first.
+/// (deg) the columns `<axis>_gt`, `<axis>_est`, `<axis>_err`; provenance line first.
 void write_axis_errors_csv(const std::filesystem::path& path,
                            const std::vector<AxisErrorSample>& samples, TimeNs t0_ns,
                            std::string_view command, bool force = false);

@@ -43,7 +43,7 @@ std::vector<std::filesystem::path> write_evaluation_files(const std::filesystem:
                                                           const Evaluation& evaluation,
                                                           std::string_view command, bool force);
 
-/// The figures, as PNG: <axis>.png for x, y, z, roll, pitch, yaw (gt and aligned est over
+/// The figures, as PNG: `<axis>.png` for x, y, z, roll, pitch, yaw (gt and aligned est over
 /// time above, their difference below), top_view.png (x-y, equal aspect) and rpe.png
 /// (translational and rotational RPE over time). Returns the paths written.
 std::vector<std::filesystem::path> write_evaluation_figures(const std::filesystem::path& dir,

@@ -19,7 +19,7 @@ class TextLineReader {
   explicit TextLineReader(std::filesystem::path path);
 
   /// Next line that is neither blank nor a comment (first non-space char '#'), with a
-  /// trailing '\r' removed. Returns false at end of file.
+  /// trailing carriage return removed. Returns false at end of file.
   bool next(std::string& line);
   [[nodiscard]] std::size_t line_number() const { return line_number_; }
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }

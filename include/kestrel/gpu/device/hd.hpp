@@ -34,7 +34,7 @@ KESTREL_HD int popcount64(std::uint64_t v) {
 #endif
 }
 
-/// +inf as a float (no <limits> on the device side).
+/// +inf as a float (no `<limits>` on the device side).
 KESTREL_HD float infinity_f() { return __builtin_huge_valf(); }
 
 }  // namespace kestrel::gpu::device
