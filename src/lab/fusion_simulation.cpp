@@ -311,6 +311,7 @@ TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::Fusion
       ever_inside = false;
     } else {
       ever_inside = true;
+      if (res.first_within_s < 0.0) res.first_within_s = t;
     }
   }
   res.converged_after_s = ever_inside ? last_outside_s : -1.0;

@@ -74,6 +74,8 @@ struct EurocExperimentResult {
   bool gyro_bias_checked = false;  ///< false where there is no bias reference (V1_01)
   std::string bias_reference;      ///< where the reference bias came from
   Eigen::Vector3d gyro_bias_final = Eigen::Vector3d::Zero();
+  /// The camera-IMU time offset the filter ends with, and its 1-sigma [s].
+  double time_offset_final_s = 0.0, time_offset_sigma_final_s = 0.0;
   /// Gap run: largest position error inside the gap, its growth over the gap, and the
   /// largest error over the whole run with the gap.
   double gap_max_error_m = 0.0;
