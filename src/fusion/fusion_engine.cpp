@@ -44,15 +44,18 @@ void FusionOptions::set_imu_noise(const io::ImuNoise& imu) {
   noise.gyro_walk = imu.gyro_random_walk;
   noise.accel_noise = imu.accel_noise_density;
   noise.accel_walk = imu.accel_random_walk;
-  imu_noise_inflation = imu.in_flight_noise_inflation.value_or(kInFlightImuNoiseInflation);
+  if (!(imu_noise_inflation > 0.0)) {  // not set by the options: the sensor file's, or in flight
+    imu_noise_inflation = imu.in_flight_noise_inflation.value_or(kInFlightImuNoiseInflation);
+  }
   if (imu.accel_range_m_s2) accel_range_m_s2 = *imu.accel_range_m_s2;
   if (imu.gyro_range_rad_s) gyro_range_rad_s = *imu.gyro_range_rad_s;
 }
 
 ImuNoiseDensities FusionOptions::filter_noise() const {
   ImuNoiseDensities n = noise;
-  n.gyro_noise *= imu_noise_inflation;
-  n.accel_noise *= imu_noise_inflation;
+  const double f = imu_noise_inflation > 0.0 ? imu_noise_inflation : 1.0;
+  n.gyro_noise *= f;
+  n.accel_noise *= f;
   return n;
 }
 
@@ -84,7 +87,10 @@ void FusionOptions::validate() const {
   positive(noise.gyro_walk, "gyroscope_random_walk");
   positive(noise.accel_noise, "accelerometer_noise_density");
   positive(noise.accel_walk, "accelerometer_random_walk");
-  positive(imu_noise_inflation, "imu_noise_inflation");
+  if (!(std::isfinite(imu_noise_inflation) && imu_noise_inflation >= 0.0)) {
+    throw InputError("imu_noise_inflation: must be >= 0 (0: the sensor file's), got " +
+                     std::to_string(imu_noise_inflation));
+  }
   positive(init_sigma_time_offset_s, "init_sigma_time_offset_s");
   if (!(std::abs(time_offset_s) <= 1.0)) {
     throw InputError("time_offset_s: must be within +-1 s, got " + std::to_string(time_offset_s));

@@ -190,13 +190,19 @@ TEST(ImuNoiseInflation, SensorFileGivesItOrTheInFlightDefault) {
   std::ofstream(dir / "given.yaml") << base << "in_flight_noise_inflation: 4\n";
   std::ofstream(dir / "bad.yaml") << base << "in_flight_noise_inflation: -2\n";
   FusionOptions o;
-  EXPECT_EQ(o.imu_noise_inflation, 1.0);  // options alone: the densities as given
+  EXPECT_EQ(o.imu_noise_inflation, 0.0);  // options alone: unset, the densities as given
+  EXPECT_DOUBLE_EQ(o.filter_noise().gyro_noise, o.noise.gyro_noise);
+  FusionOptions explicit_one;  // a value the options set is kept over the sensor file's
+  explicit_one.imu_noise_inflation = 1.0;
+  explicit_one.set_imu_noise(io::load_imu_noise(dir / "given.yaml"));
+  EXPECT_EQ(explicit_one.imu_noise_inflation, 1.0);
   o.set_imu_noise(io::load_imu_noise(dir / "plain.yaml"));
   EXPECT_EQ(o.imu_noise_inflation, kInFlightImuNoiseInflation);
   EXPECT_DOUBLE_EQ(o.filter_noise().gyro_noise, 1.6e-4 * kInFlightImuNoiseInflation);
   EXPECT_DOUBLE_EQ(o.filter_noise().gyro_walk, 1.9e-5);  // the walks are not inflated
-  o.set_imu_noise(io::load_imu_noise(dir / "given.yaml"));
-  EXPECT_EQ(o.imu_noise_inflation, 4.0);
+  FusionOptions from_file;
+  from_file.set_imu_noise(io::load_imu_noise(dir / "given.yaml"));
+  EXPECT_EQ(from_file.imu_noise_inflation, 4.0);
   try {
     (void)io::load_imu_noise(dir / "bad.yaml");
     FAIL() << "no error";
@@ -207,9 +213,9 @@ TEST(ImuNoiseInflation, SensorFileGivesItOrTheInFlightDefault) {
   FusionOptions nan_offset;
   nan_offset.time_offset_s = std::nan("");
   EXPECT_THROW(nan_offset.validate(), InputError);
-  FusionOptions zero_inflation;
-  zero_inflation.imu_noise_inflation = 0.0;
-  EXPECT_THROW(zero_inflation.validate(), InputError);
+  FusionOptions negative_inflation;
+  negative_inflation.imu_noise_inflation = -1.0;
+  EXPECT_THROW(negative_inflation.validate(), InputError);
 }
 
 }  // namespace

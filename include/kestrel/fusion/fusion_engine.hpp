@@ -31,10 +31,11 @@ inline constexpr double kInFlightImuNoiseInflation = 15.0;
 struct FusionOptions {
   ImuNoiseDensities noise;          ///< from the IMU sensor YAML (EuRoC imu0/sensor.yaml)
   /// The filter uses noise's white-noise densities (gyro, accel) times this factor; the bias
-  /// random walks as given. 1: the densities as they are (a simulated IMU, which draws exactly
-  /// them); set_imu_noise(), reading a real IMU's sensor YAML, makes it
-  /// kInFlightImuNoiseInflation or the YAML's `in_flight_noise_inflation`.
-  double imu_noise_inflation = 1.0;
+  /// random walks as given. 0 (the default): not set here; set_imu_noise(), reading a real
+  /// IMU's sensor YAML, then makes it the YAML's `in_flight_noise_inflation` or
+  /// kInFlightImuNoiseInflation, and without a sensor file it is 1 (the densities as they are: a
+  /// simulated IMU draws exactly them). A value set here (options YAML) is kept.
+  double imu_noise_inflation = 0.0;
   /// Camera-IMU time offset t_d (a frame stamped t was taken at IMU time t + t_d): its start
   /// value, and whether it is estimated online (as OpenVINS and VINS-Fusion do) with the prior
   /// std init_sigma_time_offset_s. 20 ms: a frame period of a 50 Hz camera, more than the few
@@ -134,7 +135,7 @@ struct FusionOptions {
   /// the in-flight inflation from its `in_flight_noise_inflation`, else
   /// kInFlightImuNoiseInflation (a sensor file describes a real IMU).
   void set_imu_noise(const io::ImuNoise& imu);
-  /// The densities the filter uses: the white noise times imu_noise_inflation.
+  /// The densities the filter uses: the white noise times imu_noise_inflation (1 if unset).
   [[nodiscard]] ImuNoiseDensities filter_noise() const;
   /// One line for logs.
   [[nodiscard]] std::string describe() const;
