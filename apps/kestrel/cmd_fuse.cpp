@@ -39,6 +39,8 @@ struct FuseArgs {
   bool force = false;
   double vo_sigma_p_m = 0.01;
   double vo_sigma_rot_deg = 0.5;
+  double imu_noise_inflation = 0.0;  // 0: the sensor file's, or the in-flight default
+  bool no_time_offset_state = false;
 };
 
 // Covariances per VO time stamp: "timestamp v1 .. v6" (diagonal variances) or
@@ -169,6 +171,8 @@ void run_fuse(const FuseArgs& a) {
   fusion::FusionOptions options;
   if (!a.options_path.empty()) options = fusion::FusionOptions::load_yaml(a.options_path);
   options.set_imu_noise(io::load_imu_noise(a.calib_path));  // missing field -> InputError
+  if (a.imu_noise_inflation > 0.0) options.imu_noise_inflation = a.imu_noise_inflation;
+  if (a.no_time_offset_state) options.estimate_time_offset = false;
   if (auto T = read_T_body_cam(a.calib_path, a.camera_calib_path)) {
     options.T_body_cam = *T;
   } else {
@@ -357,6 +361,13 @@ void run_fuse(const FuseArgs& a) {
   std::cerr << "kestrel fuse: " << counters.describe() << "\n";
   const std::string rejected = counters.describe_rejections();
   std::cout << "rejected: " << (rejected.empty() ? "nothing" : rejected) << "\n";
+  {
+    const auto& P = engine.filter().covariance();
+    std::cout << "camera-IMU time offset t_d: "
+              << 1e3 * engine.filter().state().time_offset_s << " ms (1-sigma "
+              << 1e3 * std::sqrt(std::max(0.0, P(fusion::idx::kTd, fusion::idx::kTd)))
+              << " ms" << (options.estimate_time_offset ? ", estimated" : ", fixed") << ")\n";
+  }
   std::cout << "fused poses: " << fused.size() << " (" << dropout_outputs
             << " flagged vo_dropout), accepted updates: " << engine.counters().updates_accepted
             << "/" << meas.size() << ", wrote " << a.out_path.string() << std::endl;
@@ -403,6 +414,13 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_option("--out", a->out_path, "fused body trajectory (TUM)")->required();
   cmd->add_option("--states", a->states_path, "also write full states, sigmas and flags here");
   cmd->add_flag("--imu-rate", a->imu_rate, "output at every IMU sample");
+  cmd->add_option("--imu-noise-inflation", a->imu_noise_inflation,
+                  "factor on the IMU white-noise densities (default: the sensor file's "
+                  "in_flight_noise_inflation, else 15; docs/fusion.md)")
+      ->check(number_in(0.0, 1000.0, "a factor in (0, 1000]", true));
+  cmd->add_flag("--no-time-offset-state", a->no_time_offset_state,
+                "keep the camera-IMU time offset fixed (time_offset_s of --options) instead of "
+                "estimating it online");
   cmd->add_option("--vo-sigma-pos", a->vo_sigma_p_m, "odometry sigma without --vo-cov [m]")
       ->capture_default_str()
       ->check(number_in(0.0, 100.0, "a standard deviation in (0, 100] m", true));

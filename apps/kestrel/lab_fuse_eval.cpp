@@ -32,13 +32,64 @@ struct FuseEvalArgs {
   double init_sigma_accel_bias = 0.2;
   bool skip_sim = false;
   bool static_bias_init = false;
-  bool vo_keyframes = false;
-  double imu_noise_scale = 1.0;
+  bool vo_keyframes = false;  // the default now; kept so that older command lines still run
+  bool frame_to_frame = false;
+  double imu_noise_scale = 0.0;  // 0: the in-flight default
+  bool no_time_offset_state = false;
+  std::vector<double> time_offsets_ms{-20.0, 0.0, 15.0};
+  int offset_flights = 5;
   double imu_walk_scale = 1.0;
   double gap_start_s = 15.0;
   bool no_first_estimates = false;
   bool synthetic_imu = false;
 };
+
+// The online time offset in simulation: each offset on the same flights and noise as the
+// zero-offset run, how soon t_d is within 1 ms for good, and the fused error against that run.
+void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const InterruptScope& interrupt) {
+  lab::SimulationOptions sim;
+  sim.duration_s = a.duration_s;
+  sim.vo_keyframes = !a.frame_to_frame;  // the odometry as the EuRoC runs above make it
+  fusion::FusionOptions o;  // the simulated IMU is as modelled: no inflation
+  o.estimate_time_offset = estimate;
+  std::cout.setf(std::ios::fixed);
+  std::cout.precision(3);
+  std::cout << "Time offset t_d in simulation (" << a.offset_flights << " flights x " << sim.duration_s
+            << " s, prior 0 +- " << 1e3 * o.init_sigma_time_offset_s << " ms"
+            << (estimate ? "" : ", NOT estimated (--no-time-offset-state)")
+            << (sim.vo_keyframes ? ", keyframe odometry" : ", frame to frame")
+            << "; targets: within 1 ms in 10 s, fused error within 10 % of the zero-offset run)\n";
+  for (const double ms : a.time_offsets_ms) {
+    int converged = 0, within10 = 0, within10_after = 0;
+    double worst_conv = 0.0;
+    std::cout << "  offset " << ms << " ms:";
+    for (int f = 0; f < a.offset_flights && !interrupt.requested(); ++f) {
+      const auto seed = a.seed + static_cast<std::uint64_t>(f);
+      const auto r = lab::time_offset_run(sim, o, 1e-3 * ms, seed);
+      const auto r0 = lab::time_offset_run(sim, o, 0.0, seed);
+      const double ratio = r.fused_rmse_m / r0.fused_rmse_m;
+      const double ratio_after = r.fused_rmse_after_m / r0.fused_rmse_after_m;
+      const bool conv = r.converged_after_s >= 0.0 && r.converged_after_s <= 10.0;
+      converged += conv ? 1 : 0;
+      within10 += ratio <= 1.1 ? 1 : 0;
+      within10_after += ratio_after <= 1.1 ? 1 : 0;
+      worst_conv = std::max(worst_conv, r.converged_after_s < 0.0 ? 1e9 : r.converged_after_s);
+      std::cout << " [t_d " << 1e3 * r.final_estimate_s << " +- " << 1e3 * r.final_sigma_s
+                << " ms, within 1 ms from " << r.converged_after_s << " s on (first at "
+                << r.first_within_s << " s), error x" << ratio
+                << ", after 10 s x" << ratio_after << "]";
+    }
+    std::cout << "\n    within 1 ms by 10 s and from then on: " << converged << " of "
+              << a.offset_flights << " (latest: ";
+    if (worst_conv > 1e8) {
+      std::cout << "not within 1 ms at the end on some flight";
+    } else {
+      std::cout << worst_conv << " s";
+    }
+    std::cout << "); fused error within 10 %: " << within10
+              << " of " << a.offset_flights << " (after 10 s: " << within10_after << ")\n";
+  }
+}
 
 void run_fuse_eval(const FuseEvalArgs& a) {
   fs::path data = a.data_dir;
@@ -54,10 +105,11 @@ void run_fuse_eval(const FuseEvalArgs& a) {
   options.init_sigma_gyro_bias_rad_s = a.init_sigma_gyro_bias;
   options.init_sigma_accel_bias_m_s2 = a.init_sigma_accel_bias;
   options.first_estimate_jacobians = !a.no_first_estimates;
+  options.estimate_time_offset = !a.no_time_offset_state;
   lab::EurocExperimentOptions eo;
   eo.seed = a.seed;
   eo.static_gyro_bias_init = a.static_bias_init;
-  eo.vo_keyframes = a.vo_keyframes;
+  eo.vo_keyframes = !a.frame_to_frame;
   eo.imu_noise_scale = a.imu_noise_scale;
   eo.imu_walk_scale = a.imu_walk_scale;
   eo.synthetic_imu = a.synthetic_imu;
@@ -128,6 +180,7 @@ void run_fuse_eval(const FuseEvalArgs& a) {
                 << "% of steps\n"
                 << "  position RMSE " << r.rmse_p_m << " m\n";
     }
+    if (!interrupt.requested()) print_time_offset_runs(a, options.estimate_time_offset, interrupt);
   }
   if (interrupt.requested()) {
     std::cout << std::flush;
@@ -170,12 +223,25 @@ void add_fuse_eval_command(CLI::App& lab) {
                 "start the real-data runs with the gyro bias from the still IMU samples before "
                 "the first pose (prior sigma 0.01 rad/s) instead of zero");
   cmd->add_flag("--vo-keyframes", a->vo_keyframes,
-                "relative poses against a keyframe (switched after 5 deg, 0.15 m or 20 frames, "
-                "as keyframe odometry reports them) instead of frame to frame");
+                "relative poses against a keyframe (the default now; kept for older command "
+                "lines)");
+  cmd->add_flag("--frame-to-frame", a->frame_to_frame,
+                "relative poses between consecutive frames instead of against a keyframe "
+                "(switched after 5 deg, 0.15 m or 20 frames, as keyframe odometry reports them)");
   cmd->add_option("--imu-noise-scale", a->imu_noise_scale,
-                  "multiply the IMU white-noise densities of imu0/sensor.yaml")
+                  "factor on the IMU white-noise densities of imu0/sensor.yaml, in place of the "
+                  "in-flight default (15; 0: the default)")
       ->capture_default_str()
       ->check(number_in(0.0, 1000.0, "a factor in [0, 1000]"));
+  cmd->add_flag("--no-time-offset-state", a->no_time_offset_state,
+                "keep the camera-IMU time offset at 0 instead of estimating it online");
+  cmd->add_option("--time-offset-ms", a->time_offsets_ms,
+                  "camera-IMU time offsets injected into the simulated flights of the time-offset "
+                  "experiment (default -20 0 15)")
+      ->check(number_in(-200.0, 200.0, "an offset in [-200, 200] ms"));
+  cmd->add_option("--offset-flights", a->offset_flights, "flights per time offset")
+      ->capture_default_str()
+      ->check(whole_in(1, 1000, "a whole number of flights from 1 to 1000"));
   cmd->add_option("--imu-walk-scale", a->imu_walk_scale,
                   "multiply the IMU bias random walks of imu0/sensor.yaml")
       ->capture_default_str()

@@ -268,7 +268,12 @@ double FlightResult::max_tracking_m() const {
 
 FlightSimulation::FlightSimulation(Scenario scenario, FlightOptions options)
     : scenario_(std::move(scenario)), options_(std::move(options)) {
+  // The simulated IMU draws exactly these densities: the filter keeps its own inflation (none
+  // unless the fusion options set one), not the in-flight factor set_imu_noise() gives a real
+  // IMU's sensor file.
+  const double inflation = options_.fusion.imu_noise_inflation;
   options_.fusion.set_imu_noise(options_.imu_noise);
+  options_.fusion.imu_noise_inflation = inflation;
   options_.fusion.T_body_cam = options_.vision.T_body_cam;
   options_.fusion.reorder_window_s =
       std::max(options_.fusion.reorder_window_s, options_.vision_latency_s + 0.010);

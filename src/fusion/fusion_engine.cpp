@@ -44,14 +44,28 @@ void FusionOptions::set_imu_noise(const io::ImuNoise& imu) {
   noise.gyro_walk = imu.gyro_random_walk;
   noise.accel_noise = imu.accel_noise_density;
   noise.accel_walk = imu.accel_random_walk;
+  if (!(imu_noise_inflation > 0.0)) {  // not set by the options: the sensor file's, or in flight
+    imu_noise_inflation = imu.in_flight_noise_inflation.value_or(kInFlightImuNoiseInflation);
+  }
   if (imu.accel_range_m_s2) accel_range_m_s2 = *imu.accel_range_m_s2;
   if (imu.gyro_range_rad_s) gyro_range_rad_s = *imu.gyro_range_rad_s;
+}
+
+ImuNoiseDensities FusionOptions::filter_noise() const {
+  ImuNoiseDensities n = noise;
+  const double f = imu_noise_inflation > 0.0 ? imu_noise_inflation : 1.0;
+  n.gyro_noise *= f;
+  n.accel_noise *= f;
+  return n;
 }
 
 std::string FusionOptions::describe() const {
   std::ostringstream s;
   s << "gyro_noise=" << noise.gyro_noise << " gyro_walk=" << noise.gyro_walk
     << " accel_noise=" << noise.accel_noise << " accel_walk=" << noise.accel_walk
+    << " imu_noise_inflation=" << imu_noise_inflation << " time_offset=" << time_offset_s
+    << "s estimate_time_offset=" << (estimate_time_offset ? "on" : "off")
+    << " sigma_time_offset=" << init_sigma_time_offset_s
     << " g=" << gravity_m_s2 << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
     << "s max_imu_gap=" << max_imu_gap_s << "s accel_range=" << accel_range_m_s2
     << "m/s^2 gyro_range=" << gyro_range_rad_s << "rad/s imu_horizon=" << imu_horizon_s
@@ -73,6 +87,14 @@ void FusionOptions::validate() const {
   positive(noise.gyro_walk, "gyroscope_random_walk");
   positive(noise.accel_noise, "accelerometer_noise_density");
   positive(noise.accel_walk, "accelerometer_random_walk");
+  if (!(std::isfinite(imu_noise_inflation) && imu_noise_inflation >= 0.0)) {
+    throw InputError("imu_noise_inflation: must be >= 0 (0: the sensor file's), got " +
+                     std::to_string(imu_noise_inflation));
+  }
+  positive(init_sigma_time_offset_s, "init_sigma_time_offset_s");
+  if (!(std::abs(time_offset_s) <= 1.0)) {
+    throw InputError("time_offset_s: must be within +-1 s, got " + std::to_string(time_offset_s));
+  }
   positive(gravity_m_s2, "gravity_m_s2");
   positive(dropout_timeout_s, "dropout_timeout_s");
   positive(max_imu_gap_s, "max_imu_gap_s");
@@ -216,7 +238,7 @@ const FusionOptions& validated(const FusionOptions& o) {
 // std::optional members as "may be used uninitialized" once the two files share a unity TU.
 FusionEngine::FusionEngine(FusionOptions options)
     : options_(std::move(options)),
-      ekf_(validated(options_).noise, Vector3d(0.0, 0.0, -options_.gravity_m_s2)) {
+      ekf_(validated(options_).filter_noise(), Vector3d(0.0, 0.0, -options_.gravity_m_s2)) {
   ekf_.set_first_estimate_jacobians(options_.first_estimate_jacobians);
   gate_chi2_ = options_.gate_probability > 0.0
                    ? chi_square_quantile(options_.gate_probability, 6.0)
@@ -224,7 +246,10 @@ FusionEngine::FusionEngine(FusionOptions options)
 }
 
 void FusionEngine::initialize(const NominalState& state) {
-  ekf_.initialize(state, options_.initial_covariance());
+  NominalState x = state;
+  x.time_offset_s = options_.time_offset_s;
+  ekf_.initialize(x, options_.initial_covariance(),
+                  options_.estimate_time_offset ? options_.init_sigma_time_offset_s : 0.0);
   initialized_ = true;
   processed_ns_ = std::max(processed_ns_, state.t_ns);
   last_accepted_update_ns_ = state.t_ns;
@@ -495,6 +520,7 @@ FusedState FusionEngine::output(bool at_odometry) const {
   f.t_ns = f.state.t_ns;
   f.sigma = ekf_.covariance().diagonal().head<9>().cwiseMax(0.0).cwiseSqrt();
   f.sigma_gyro_bias = ekf_.covariance().diagonal().segment<3>(idx::kBg).cwiseMax(0.0).cwiseSqrt();
+  f.sigma_time_offset_s = std::sqrt(std::max(0.0, ekf_.covariance()(idx::kTd, idx::kTd)));
   f.at_odometry = at_odometry;
   f.flags = sticky_flags_;
   if (ns_to_s(f.t_ns - last_accepted_update_ns_) > options_.dropout_timeout_s) {

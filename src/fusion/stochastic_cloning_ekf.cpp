@@ -45,6 +45,7 @@ NominalState NominalState::boxplus(const VectorXs& dx) const {
   r.accel_bias_m_s2 += dx.segment<3>(idx::kBa);
   r.p_clone_world += dx.segment<3>(idx::kPd);
   r.q_world_clone = right_perturb(q_world_clone, dx.segment<3>(idx::kThetaD));
+  r.time_offset_s += dx(idx::kTd);
   return r;
 }
 
@@ -57,17 +58,21 @@ VectorXs NominalState::boxminus(const NominalState& o) const {
   e.segment<3>(idx::kBa) = accel_bias_m_s2 - o.accel_bias_m_s2;
   e.segment<3>(idx::kPd) = p_clone_world - o.p_clone_world;
   e.segment<3>(idx::kThetaD) = log_q(o.q_world_clone.conjugate() * q_world_clone);
+  e(idx::kTd) = time_offset_s - o.time_offset_s;
   return e;
 }
 
 bool NominalState::all_finite() const {
   return p_world.allFinite() && q_world_body.coeffs().allFinite() && v_world.allFinite() &&
          gyro_bias_rad_s.allFinite() && accel_bias_m_s2.allFinite() &&
-         p_clone_world.allFinite() && q_world_clone.coeffs().allFinite();
+         p_clone_world.allFinite() && q_world_clone.coeffs().allFinite() &&
+         std::isfinite(time_offset_s) && omega_body.allFinite() && v_clone_body.allFinite() &&
+         omega_clone_body.allFinite();
 }
 
-void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d& covariance) {
-  if (!state.all_finite() || !covariance.allFinite()) {
+void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d& covariance,
+                                      double time_offset_sigma_s) {
+  if (!state.all_finite() || !covariance.allFinite() || !std::isfinite(time_offset_sigma_s)) {
     throw std::invalid_argument("StochasticCloningEkf::initialize: non-finite state or covariance");
   }
   x_ = state;
@@ -75,6 +80,7 @@ void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d
   before_update_.reset();
   P_.setZero();
   P_.topLeftCorner<idx::kCore, idx::kCore>() = 0.5 * (covariance + covariance.transpose());
+  P_(idx::kTd, idx::kTd) = time_offset_sigma_s * time_offset_sigma_s;
   clone();
 }
 
@@ -96,6 +102,7 @@ NominalState StochasticCloningEkf::propagate_nominal(const NominalState& x,
   r.p_world = x.p_world + x.v_world * dt + 0.5 * acc_world * dt * dt;
   r.v_world = x.v_world + acc_world * dt;
   r.q_world_body = right_perturb(x.q_world_body, w * dt);
+  r.omega_body = w;
   return r;
 }
 
@@ -186,20 +193,55 @@ void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
     set_first_estimate_columns(F, *before_update_, x_, dt, g_world_);
   }
   before_update_.reset();
-  // P <- F P F^T + dQ on the current block; the clone block is unchanged and the cross
-  // block becomes F P_xc (the growing correlation the thesis describes after eq. 4.6).
+  // P <- F P F^T + dQ on the current block; the clone and time-offset blocks are unchanged
+  // (t_d is a constant) and the cross block becomes F P_xc (the growing correlation the thesis
+  // describes after eq. 4.6).
   auto Pcc = P_.topLeftCorner<idx::kCore, idx::kCore>();
   const Matrix15d FP = F * Pcc;
   Matrix15d Pn = FP * F.transpose();
   Pn.diagonal() += process_noise(noise_, dt).diagonal();
   Pcc = 0.5 * (Pn + Pn.transpose());
-  const Eigen::Matrix<double, idx::kCore, 6> cross = F * P_.topRightCorner<idx::kCore, 6>();
-  P_.topRightCorner<idx::kCore, 6>() = cross;
-  P_.bottomLeftCorner<6, idx::kCore>() = cross.transpose();
+  constexpr int kRest = idx::kDim - idx::kCore;
+  const Eigen::Matrix<double, idx::kCore, kRest> cross =
+      F * P_.topRightCorner<idx::kCore, kRest>();
+  P_.topRightCorner<idx::kCore, kRest>() = cross;
+  P_.bottomLeftCorner<kRest, idx::kCore>() = cross.transpose();
 }
 
+namespace {
+
+// The two frames' poses at their IMU times t + t_d, to first order in t_d (a frame stamped t
+// was taken at IMU time t + t_d; the filter's state is at t): the body moves along its
+// velocity and turns at its rate, T(t + t_d) = (p + v t_d, R exp(w t_d)). The clone's velocity
+// is held in its own body frame (NominalState).
+struct ShiftedFrames {
+  Eigen::Matrix3d A;   // R_clone exp(w_clone t_d)
+  Eigen::Matrix3d E;   // exp(w t_d)
+  Eigen::Matrix3d Ed;  // exp(w_clone t_d)
+  Vector3d u;          // R_clone^T (p + v t_d - p_clone)
+  Vector3d p_rel;      // Ed^T (u - v_clone_body t_d)
+  Eigen::Matrix3d R_rel;
+};
+
+ShiftedFrames shifted_frames(const NominalState& x) {
+  const double td = x.time_offset_s;
+  ShiftedFrames f;
+  const Eigen::Matrix3d Rd = x.q_world_clone.toRotationMatrix();
+  const Eigen::Matrix3d R = x.q_world_body.toRotationMatrix();
+  f.E = SO3::exp(x.omega_body * td).matrix();
+  f.Ed = SO3::exp(x.omega_clone_body * td).matrix();
+  f.A = Rd * f.Ed;
+  f.u = Rd.transpose() * (x.p_world + x.v_world * td - x.p_clone_world);
+  f.p_rel = f.Ed.transpose() * (f.u - x.v_clone_body * td);
+  f.R_rel = f.A.transpose() * R * f.E;
+  return f;
+}
+
+}  // namespace
+
 SE3 StochasticCloningEkf::predict_relative_pose(const NominalState& x) {
-  return x.T_world_clone().inverse() * x.T_world_body();
+  const ShiftedFrames f = shifted_frames(x);
+  return SE3(SO3::from_matrix(f.R_rel), f.p_rel);
 }
 
 Vector6d StochasticCloningEkf::residual(const SE3& measured, const SE3& predicted) {
@@ -210,18 +252,27 @@ Vector6d StochasticCloningEkf::residual(const SE3& measured, const SE3& predicte
 }
 
 Matrix6xs StochasticCloningEkf::measurement_jacobian(const NominalState& x) {
-  // Thesis eq. 4.7 linearised with local attitude errors:
-  //   p_rel = R_d^T (p - p_d): d/dp = R_d^T, d/dp_d = -R_d^T, d/dtheta_d = [p_rel]x
-  //   R_rel = R_d^T R:        d/dtheta = I,  d/dtheta_d = -R_rel^T
-  const Matrix3d Rd = x.q_world_clone.toRotationMatrix();
-  const Matrix3d R = x.q_world_body.toRotationMatrix();
-  const Vector3d p_rel = Rd.transpose() * (x.p_world - x.p_clone_world);
+  // Thesis eq. 4.7 linearised with local attitude errors, on the frames moved by t_d
+  // (shifted_frames; at t_d = 0, E = Ed = I and these are the thesis' Jacobians):
+  //   p_rel = Ed^T (R_d^T (p + v t_d - p_d) - v_db t_d):
+  //     d/dp = A^T, d/dp_d = -A^T, d/dv = A^T t_d, d/dtheta_d = Ed^T [u]x,
+  //     d/dt_d = A^T v - Ed^T v_db - [w_d]x p_rel   (d Ed^T / dt_d = -[w_d]x Ed^T)
+  //   R_rel = Ed^T R_d^T R E:
+  //     d/dtheta = E^T, d/dtheta_d = -R_rel^T Ed^T, d/dt_d = w - R_rel^T w_d
+  // The t_d column is the temporal-calibration Jacobian of Li & Mourikis (IJRR 2014) for a
+  // relative pose: the rate difference between the two frames makes t_d observable.
+  const ShiftedFrames f = shifted_frames(x);
+  const double td = x.time_offset_s;
   Matrix6xs H = Matrix6xs::Zero();
-  H.block<3, 3>(0, idx::kP) = Rd.transpose();
-  H.block<3, 3>(0, idx::kPd) = -Rd.transpose();
-  H.block<3, 3>(0, idx::kThetaD) = SO3::hat(p_rel);
-  H.block<3, 3>(3, idx::kTheta) = Matrix3d::Identity();
-  H.block<3, 3>(3, idx::kThetaD) = -(R.transpose() * Rd);
+  H.block<3, 3>(0, idx::kP) = f.A.transpose();
+  H.block<3, 3>(0, idx::kV) = f.A.transpose() * td;
+  H.block<3, 3>(0, idx::kPd) = -f.A.transpose();
+  H.block<3, 3>(0, idx::kThetaD) = f.Ed.transpose() * SO3::hat(f.u);
+  H.block<3, 1>(0, idx::kTd) = f.A.transpose() * x.v_world - f.Ed.transpose() * x.v_clone_body -
+                               x.omega_clone_body.cross(f.p_rel);
+  H.block<3, 3>(3, idx::kTheta) = f.E.transpose();
+  H.block<3, 3>(3, idx::kThetaD) = -f.R_rel.transpose() * f.Ed.transpose();
+  H.block<3, 1>(3, idx::kTd) = x.omega_body - f.R_rel.transpose() * x.omega_clone_body;
   return H;
 }
 
@@ -291,6 +342,8 @@ void StochasticCloningEkf::clone() {
   x_.p_clone_world = x_.p_world;
   x_.q_world_clone = x_.q_world_body;
   x_.clone_t_ns = x_.t_ns;
+  x_.v_clone_body = x_.q_world_body.conjugate() * x_.v_world;
+  x_.omega_clone_body = x_.omega_body;
   // The clone's rows and columns become copies of the current pose's (p, theta).
   P_.middleRows<3>(idx::kPd) = P_.middleRows<3>(idx::kP);
   P_.middleRows<3>(idx::kThetaD) = P_.middleRows<3>(idx::kTheta);

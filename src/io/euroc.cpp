@@ -46,6 +46,9 @@ ImuNoise load_imu_noise(const fs::path& sensor_yaml) {
   if (root["gyroscope_range_rad_s"]) {
     n.gyro_range_rad_s = positive_field(root, "gyroscope_range_rad_s", sensor_yaml);
   }
+  if (root["in_flight_noise_inflation"]) {
+    n.in_flight_noise_inflation = positive_field(root, "in_flight_noise_inflation", sensor_yaml);
+  }
   if (root["T_BS"]) {
     std::vector<double> m;
     try {

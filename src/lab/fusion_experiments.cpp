@@ -179,8 +179,13 @@ void load_inputs(EurocRun& run) {
   }
   run.yaml_noise = fusion.noise;  // before the scales below
   fusion.reorder_window_s = 0.0;
-  fusion.noise.gyro_noise *= opt.imu_noise_scale;
-  fusion.noise.accel_noise *= opt.imu_noise_scale;
+  // The white noise: the in-flight inflation set_imu_noise() gave the real IMU, a given scale
+  // in its place, or none for the synthetic IMU (it draws exactly the YAML's densities).
+  if (opt.imu_noise_scale > 0.0) {
+    fusion.imu_noise_inflation = opt.imu_noise_scale;
+  } else if (opt.synthetic_imu) {
+    fusion.imu_noise_inflation = 1.0;
+  }
   fusion.noise.gyro_walk *= opt.imu_walk_scale;
   fusion.noise.accel_walk *= opt.imu_walk_scale;
   const std::vector<GroundTruthSample>& gt = run.gt();
@@ -386,6 +391,8 @@ void check_gyro_bias(const EurocRun& run, const std::vector<fusion::FusedState>&
       r.gyro_bias_error_max_after = std::max(r.gyro_bias_error_max_after, e);
     }
     r.gyro_bias_final = f.state.gyro_bias_rad_s;
+    r.time_offset_final_s = f.state.time_offset_s;
+    r.time_offset_sigma_final_s = f.sigma_time_offset_s;
   }
   r.gyro_bias_checked = checked;
 }
@@ -404,6 +411,9 @@ void score_gap(const EurocRun& run, const std::vector<fusion::FusedState>& gappe
     if (f.t_ns >= run.gap_lo && f.t_ns <= run.gap_hi) {
       r.gap_max_error_m = std::max(r.gap_max_error_m, e);
       r.gap_max_sigma_p_m = std::max(r.gap_max_sigma_p_m, f.sigma.head<3>().norm());
+      const Vector3d e3 = (f.state.p_world - g->T_world_body.translation()).cwiseAbs();
+      ++r.gap_samples;
+      if ((e3.array() <= 3.0 * f.sigma.head<3>().array()).all()) ++r.gap_samples_inside_3sigma;
       if (f.flags & fusion::kFlagVoDropout) r.gap_flag_raised = true;
     }
   }
@@ -568,7 +578,8 @@ std::string format_result(const EurocExperimentResult& r) {
   s.precision(4);
   s << r.name << ": " << r.duration_s << " s, " << r.measurements << " relative poses\n"
     << "  position RMSE: fused " << r.fused_rmse_m << " m, chained " << r.chained_rmse_m
-    << " m, ratio " << r.fused_rmse_m / r.chained_rmse_m << " (target <= 0.5)\n"
+    << " m, ratio " << r.fused_rmse_m / r.chained_rmse_m
+    << " (issue: median over draws <= 0.4, worst <= 0.7)\n"
     << "  rotation RMSE: fused " << r.fused_rot_rmse_deg << " deg, chained "
     << r.chained_rot_rmse_deg << " deg\n"
     << "  gyro bias error: ";
@@ -580,9 +591,11 @@ std::string format_result(const EurocExperimentResult& r) {
     s << "not measured";
   }
   s << "; reference: " << r.bias_reference << "\n  final gyro bias "
-    << r.gyro_bias_final.transpose() << "\n"
+    << r.gyro_bias_final.transpose() << "\n  camera-IMU time offset at the end: "
+    << 1e3 * r.time_offset_final_s << " ms (1-sigma " << 1e3 * r.time_offset_sigma_final_s
+    << " ms)\n"
     << "  2 s gap: max position error in the gap " << r.gap_max_error_m << " m (growth "
-    << r.gap_error_growth_m << " m, target < 0.3), max over the run " << r.gap_run_max_error_m
+    << r.gap_error_growth_m << " m; issue: median over draws <= 0.3), max over the run " << r.gap_run_max_error_m
     << " m, vo_dropout flagged " << (r.gap_flag_raised ? "yes" : "NO")
     << ", 1-sigma position in the gap up to " << r.gap_max_sigma_p_m << " m\n";
   if (const auto& d = r.gap_decomposition; d.measured) {
@@ -616,6 +629,10 @@ EurocSeedSummary::Spread spread(std::vector<double> v, double target, bool stric
   out.median = n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
   out.min = v.front();
   out.max = v.back();
+  const double pos = 0.9 * static_cast<double>(n - 1);
+  const auto lo = static_cast<std::size_t>(pos);
+  const std::size_t hi = std::min(lo + 1, n - 1);
+  out.p90 = v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
   return out;
 }
 
@@ -629,6 +646,9 @@ EurocSeedSummary summarise_draws(const std::vector<EurocExperimentResult>& resul
   std::vector<double> ratio, at_check, max_after, gap;
   for (const auto& r : results) {
     ratio.push_back(r.fused_rmse_m / r.chained_rmse_m);
+    if (r.fused_rmse_m > r.chained_rmse_m) ++s.ratio_above_one;
+    s.gap_samples += r.gap_samples;
+    s.gap_samples_inside_3sigma += r.gap_samples_inside_3sigma;
     gap.push_back(r.gap_max_error_m);
     s.mean_fused_m += r.fused_rmse_m / static_cast<double>(results.size());
     s.mean_chained_m += r.chained_rmse_m / static_cast<double>(results.size());
@@ -638,10 +658,10 @@ EurocSeedSummary summarise_draws(const std::vector<EurocExperimentResult>& resul
     }
   }
   s.bias_draws = static_cast<int>(at_check.size());
-  s.ratio = spread(ratio, 0.5, false);
-  s.bias_at_check = spread(at_check, 0.003, false);
-  s.bias_max_after = spread(max_after, 0.003, false);
-  s.gap_max_error = spread(gap, 0.3, true);
+  s.ratio = spread(ratio, 0.7, false);
+  s.bias_at_check = spread(at_check, 0.005, false);
+  s.bias_max_after = spread(max_after, 0.005, false);
+  s.gap_max_error = spread(gap, 0.45, false);
   return s;
 }
 
@@ -649,19 +669,36 @@ std::string format_summary(const EurocSeedSummary& s) {
   std::ostringstream o;
   o.setf(std::ios::fixed);
   o.precision(4);
-  auto line = [&](const char* what, const EurocSeedSummary::Spread& x, int of, const char* target) {
-    o << "  " << what << ": median " << x.median << ", min " << x.min << ", max " << x.max
-      << "; target " << target << " met in " << x.meeting << " of " << of << "\n";
+  // The issue's targets are over the draws (median, 90th percentile, worst); each line says
+  // them and whether they hold, and how many single draws are within the per-draw bound.
+  auto yes = [](bool ok) { return ok ? "MET" : "MISSED"; };
+  auto line = [&](const char* what, const EurocSeedSummary::Spread& x, int of,
+                  const char* per_draw) {
+    o << "  " << what << ": median " << x.median << ", p90 " << x.p90 << ", min " << x.min
+      << ", max " << x.max << "; " << per_draw << " in " << x.meeting << " of " << of << " draws\n";
   };
   o << s.name << ", " << s.draws << " noise draws (seeds):\n";
-  line("fused/chained ratio", s.ratio, s.draws, "<= 0.5");
-  o << "    (mean fused " << s.mean_fused_m << " m / mean chained " << s.mean_chained_m
+  line("fused/chained ratio", s.ratio, s.draws, "<= 0.7");
+  o << "    target median <= 0.4: " << yes(s.ratio.median <= 0.4) << "; worst <= 0.7: "
+    << yes(s.ratio.max <= 0.7) << "; never above 1: " << yes(s.ratio_above_one == 0) << " ("
+    << s.ratio_above_one << " above)\n"
+    << "    (mean fused " << s.mean_fused_m << " m / mean chained " << s.mean_chained_m
     << " m = " << s.mean_fused_m / s.mean_chained_m << ")\n";
   if (s.bias_draws > 0) {
-    line("gyro bias error at 20 s [rad/s]", s.bias_at_check, s.bias_draws, "<= 0.003");
-    line("gyro bias error, max after 20 s", s.bias_max_after, s.bias_draws, "<= 0.003");
+    line("gyro bias error at 20 s [rad/s]", s.bias_at_check, s.bias_draws, "<= 0.005");
+    o << "    target median <= 0.003: " << yes(s.bias_at_check.median <= 0.003)
+      << "; p90 <= 0.005: " << yes(s.bias_at_check.p90 <= 0.005) << "\n";
+    line("gyro bias error, max after 20 s", s.bias_max_after, s.bias_draws, "<= 0.005");
   }
-  line("max position error in the 2 s gap [m]", s.gap_max_error, s.draws, "< 0.3");
+  line("max position error in the 2 s gap [m]", s.gap_max_error, s.draws, "<= 0.45");
+  o << "    target median <= 0.3: " << yes(s.gap_max_error.median <= 0.3)
+    << "; p90 <= 0.45: " << yes(s.gap_max_error.p90 <= 0.45) << "\n";
+  const double inside = s.gap_samples > 0 ? static_cast<double>(s.gap_samples_inside_3sigma) /
+                                                static_cast<double>(s.gap_samples)
+                                          : 0.0;
+  o << "  gap samples inside the filter's 3-sigma position bound: " << s.gap_samples_inside_3sigma
+    << " of " << s.gap_samples << " (" << 100.0 * inside << " %); target >= 95 %: "
+    << yes(inside >= 0.95) << "\n";
   return o.str();
 }
 

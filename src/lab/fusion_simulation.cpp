@@ -119,8 +119,10 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
   }
   Vector3d bg = run.gyro_bias0, ba = run.accel_bias0;
   const Matrix6d vo_cov = simulated_vo_covariance(sim);
-  SE3 T_world_cam_prev;
+  SE3 T_world_cam_prev;  // the reference frame: the previous one, or the keyframe
   TimeNs t_prev = 0;
+  int frames_on_ref = 0;
+  const double max_rot_rad = sim.vo_keyframe_max_rot_deg * std::numbers::pi / 180.0;
   for (std::size_t k = 0; k < n; ++k) {
     const TimeNs t_ns = static_cast<TimeNs>(k) * period;
     const FlightPoint pt = flight.at(ns_to_s(t_ns));
@@ -137,11 +139,20 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
         m.t_ns = t_ns;
         m.covariance = vo_cov;
         const Vector6d xi = sample_gaussian<6>(vo_cov, rng);
-        m.T_ref_cur = SE3::exp(-xi) * (T_world_cam_prev.inverse() * T_world_cam);
+        const SE3 T_true = T_world_cam_prev.inverse() * T_world_cam;
+        m.T_ref_cur = SE3::exp(-xi) * T_true;
+        ++frames_on_ref;
+        m.starts_new_reference = !sim.vo_keyframes ||
+                                 T_true.so3().log().norm() > max_rot_rad ||
+                                 T_true.translation().norm() > sim.vo_keyframe_max_trans_m ||
+                                 frames_on_ref >= sim.vo_keyframe_max_frames;
         run.odometry.push_back(m);
       }
-      T_world_cam_prev = T_world_cam;
-      t_prev = t_ns;
+      if (k == 0 || run.odometry.back().starts_new_reference) {
+        T_world_cam_prev = T_world_cam;
+        t_prev = t_ns;
+        frames_on_ref = 0;
+      }
     }
   }
   return run;
@@ -249,6 +260,66 @@ NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
   summarise(res.nees_theta, res.mean_theta, res.inside_theta);
   summarise(res.nees_v, res.mean_v, res.inside_v);
   res.rmse_p_m = n_err ? std::sqrt(sq_err / static_cast<double>(n_err)) : 0.0;
+  return res;
+}
+
+TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::FusionOptions& fusion_in,
+                              double offset_s, std::uint64_t seed, double tolerance_s,
+                              double compare_after_s) {
+  fusion::FusionOptions fusion = fusion_in;
+  fusion.T_body_cam = sim.T_body_cam;
+  fusion.reorder_window_s = 0.0;
+  std::mt19937_64 rng(seed * 1000003ULL);
+  const SimulatedFlight flight(seed + 1);
+  SimulatedRun run = simulate_run(flight, sim, fusion, rng);
+  // The camera's clock: a frame taken at IMU time t carries the stamp t - t_d.
+  const TimeNs shift = s_to_ns(offset_s);
+  for (auto& m : run.odometry) {
+    m.t_ns -= shift;
+    m.t_ref_ns -= shift;
+  }
+  fusion::FusionEngine engine(fusion);
+  fusion::NominalState x0 = true_state(flight, run, 0, sim.imu_rate_hz);
+  x0.gyro_bias_rad_s.setZero();
+  x0.accel_bias_m_s2.setZero();
+  engine.initialize(x0);
+  TimeOffsetRun res;
+  res.true_offset_s = offset_s;
+  double se = 0.0, se_after = 0.0;
+  std::size_t n = 0, n_after = 0;
+  std::size_t i = 0;
+  double last_outside_s = 0.0;
+  bool ever_inside = false;
+  for (const auto& m : run.odometry) {
+    while (i < run.imu.size() && run.imu[i].t_ns <= m.t_ns) engine.add_imu(run.imu[i++]);
+    engine.add_relative_pose(m);
+    (void)engine.flush(false);
+    if (m.t_ns <= 0) continue;  // before the filter's start
+    const fusion::NominalState& est = engine.filter().state();
+    const double t = ns_to_s(m.t_ns);
+    const double e = (est.p_world - flight.at(t).T_world_body.translation()).squaredNorm();
+    se += e;
+    ++n;
+    if (t >= compare_after_s) {
+      se_after += e;
+      ++n_after;
+    }
+    res.t_s.push_back(t);
+    res.estimate_s.push_back(est.time_offset_s);
+    if (std::abs(est.time_offset_s - offset_s) >= tolerance_s) {
+      last_outside_s = t;
+      ever_inside = false;
+    } else {
+      ever_inside = true;
+      if (res.first_within_s < 0.0) res.first_within_s = t;
+    }
+  }
+  res.converged_after_s = ever_inside ? last_outside_s : -1.0;
+  res.final_estimate_s = engine.filter().state().time_offset_s;
+  res.final_sigma_s = std::sqrt(std::max(
+      0.0, engine.filter().covariance()(fusion::idx::kTd, fusion::idx::kTd)));
+  res.fused_rmse_m = n ? std::sqrt(se / static_cast<double>(n)) : 0.0;
+  res.fused_rmse_after_m = n_after ? std::sqrt(se_after / static_cast<double>(n_after)) : 0.0;
   return res;
 }
 

@@ -86,6 +86,7 @@ const std::map<std::string, std::string>& good_values_without_default() {
       {"kestrel capture --rate", "30"},            {"kestrel render --duration", "3"},
       {"kestrel fly --duration", "30"},            {"kestrel fly --latency", "0.04"},
       {"kestrel fly --vo-off-at", "10"},           {"kestrel fly --vo-off-for", "2"},
+      {"kestrel fuse --imu-noise-inflation", "15"}, {"kestrel lab fuse-eval --time-offset-ms", "15"},
   };
   return values;
 }

@@ -111,7 +111,7 @@ TEST(FusionBehaviour, JosephUpdateKeepsCovarianceSymmetricPositiveDefiniteForAnH
   EXPECT_LT(engine.counters().mean_nis(), 6.5);
   std::cout << "hour of flight: mean NIS " << engine.counters().mean_nis() << " over "
             << engine.counters().updates_accepted << " updates\n";
-  // The full 21x21 after a propagation step is positive-definite too.
+  // The full 22x22 after a propagation step is positive-definite too.
   StochasticCloningEkf ekf = engine.filter();
   ekf.propagate({Vector3d::Zero(), Vector3d(0, 0, 9.81)}, 0.02);
   const Eigen::SelfAdjointEigenSolver<MatrixXs> es(ekf.covariance());

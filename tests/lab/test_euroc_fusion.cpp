@@ -34,10 +34,12 @@ TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
   EXPECT_DOUBLE_EQ(s.ratio.median, 0.3);
   EXPECT_DOUBLE_EQ(s.ratio.min, 0.1);
   EXPECT_DOUBLE_EQ(s.ratio.max, 0.6);
-  EXPECT_EQ(s.ratio.meeting, 2);          // <= 0.5
-  EXPECT_EQ(s.gap_max_error.meeting, 1);  // < 0.3: 0.3 itself does not meet it
+  EXPECT_EQ(s.ratio.meeting, 3);          // <= 0.7 (the worst draw)
+  EXPECT_EQ(s.ratio_above_one, 0);
+  EXPECT_EQ(s.gap_max_error.meeting, 2);  // <= 0.45 (the 90th percentile)
+  EXPECT_DOUBLE_EQ(s.gap_max_error.p90, 0.3 + 0.8 * 0.2);  // between the 2nd and 3rd of 3
   EXPECT_EQ(s.bias_draws, 2);
-  EXPECT_EQ(s.bias_at_check.meeting, 2);  // <= 0.003
+  EXPECT_EQ(s.bias_at_check.meeting, 2);  // <= 0.005
   EXPECT_DOUBLE_EQ(s.bias_at_check.median, 0.002);
   EXPECT_NEAR(s.mean_fused_m, 1.0 / 3.0, 1e-12);
   EXPECT_THROW(summarise_draws({}), std::invalid_argument);
@@ -46,7 +48,10 @@ TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
 TEST(FusionEuroc, V1_02FusedBeatsChainingAndTracksTheGyroBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
   const fusion::FusionOptions o = wide_bias_prior();
-  const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, {});
+  EurocExperimentOptions eo;  // the configuration before the defaults changed
+  eo.vo_keyframes = false;
+  eo.imu_noise_scale = 1.0;
+  const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
   std::cout << format_result(r);
   // REGRESSION GUARDS at seed 1, a favourable noise draw: ratio 0.34 (0.268 vs 0.779 m), gyro
   // bias 0.0026 rad/s at 20 s but 0.0045 later, gap 1.07 m. Over 20 draws frame to frame with
@@ -66,6 +71,8 @@ TEST(FusionEuroc, V1_02StaticStartBias) {
   KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
   const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
+  eo.vo_keyframes = false;
+  eo.imu_noise_scale = 1.0;
   eo.static_gyro_bias_init = true;  // gyro bias from the still IMU before the first pose
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
   std::cout << format_result(r);
@@ -86,6 +93,7 @@ TEST(FusionEuroc, V1_02KeyframeOdometryTracksTheGyroBias) {
   const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
+  eo.imu_noise_scale = 1.0;
   const auto r = run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo);
   std::cout << format_result(r);
   EXPECT_EQ(r.counters.updates_no_reference, 0u);
@@ -145,6 +153,7 @@ TEST(FusionEuroc, SyntheticImuControlExperiment) {
   const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
+  eo.imu_noise_scale = 1.0;
   std::vector<EurocExperimentResult> synthetic, real;
   for (std::uint64_t seed = 1; seed <= 8; ++seed) {
     eo.seed = seed;
@@ -177,7 +186,7 @@ TEST(FusionEuroc, SyntheticImuControlExperiment) {
   EXPECT_EQ(s.bias_max_after.meeting, 8);
   EXPECT_LT(s.gap_max_error.median, 0.5 * r.gap_max_error.median);
   EXPECT_GE(s.gap_max_error.meeting, 6);  // regression guard (measured 7 of 8)
-  EXPECT_EQ(r.gap_max_error.meeting, 0);  // the real IMU at 1x (measured 0 of 20)
+  EXPECT_GT(r.gap_max_error.median, 0.45);  // the real IMU at 1x (median 0.61 m over 20)
 }
 
 // The evidence for reading groundtruth_cam0's quaternion as R_cam_world: the relative
@@ -230,7 +239,10 @@ TEST(FusionEuroc, V1_01Cam0QuaternionIsTheInverseOrientation) {
 TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/groundtruth_cam0/data.csv");
   const fusion::FusionOptions o = wide_bias_prior();
-  const auto r = run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, {});
+  EurocExperimentOptions eo;  // the configuration before the defaults changed
+  eo.vo_keyframes = false;
+  eo.imu_noise_scale = 1.0;
+  const auto r = run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, eo);
   std::cout << format_result(r);
   // Before the fix (q read as R_world_cam) 2867 of 2870 updates were gated and the filter
   // diverged; now at most a handful are.
@@ -240,6 +252,45 @@ TEST(FusionEuroc, V1_01Cam0GroundTruthIsAcceptedAfterTheQuaternionFix) {
   // (max absolute error in the gap 0.45 m, target 0.3 m).
   EXPECT_LT(r.fused_rmse_m, 0.8 * r.chained_rmse_m);
   EXPECT_LT(r.gap_error_growth_m, 0.3);
+}
+
+// The targets with the DEFAULTS (keyframe-referenced odometry, the in-flight IMU noise,
+// the online time offset) over 20 noise draws, as `kestrel lab fuse-eval --skip-sim --seeds 20`
+// prints them: the bounds are the figures, except V1_01's median ratio, whose 0.4 is
+// missed (docs/fusion.md) and guarded at its measured level. ~15 s: not under the sanitizers.
+TEST(FusionEuroc, DefaultsMeetTheTargetsOverTwentyDraws) {
+#if !defined(NDEBUG) || defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "20 noise draws of two EuRoC runs: release builds without sanitizers only";
+#endif
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/imu0/data.csv");
+  const fusion::FusionOptions o = wide_bias_prior();
+  EurocExperimentOptions eo;  // the defaults
+  std::vector<EurocExperimentResult> v1_02, v1_01;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    eo.seed = seed;
+    v1_02.push_back(
+        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
+    v1_01.push_back(run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, eo));
+  }
+  const EurocSeedSummary a = summarise_draws(v1_02), b = summarise_draws(v1_01);
+  std::cout << format_summary(a) << format_summary(b);
+  EXPECT_LE(a.ratio.median, 0.4);
+  EXPECT_LE(a.ratio.max, 0.7);
+  EXPECT_EQ(a.ratio_above_one, 0);
+  ASSERT_EQ(a.bias_draws, 20);
+  EXPECT_LE(a.bias_at_check.median, 0.003);
+  EXPECT_LE(a.bias_at_check.p90, 0.005);
+  EXPECT_LE(a.gap_max_error.median, 0.3);
+  EXPECT_LE(a.gap_max_error.p90, 0.45);
+  EXPECT_GE(a.gap_samples_inside_3sigma, 0.95 * a.gap_samples);
+  // V1_01: REGRESSION GUARD on the median ratio (target 0.4 missed, docs/fusion.md).
+  EXPECT_LE(b.ratio.median, 0.45);
+  EXPECT_LE(b.ratio.max, 0.7);
+  EXPECT_EQ(b.ratio_above_one, 0);
+  EXPECT_LE(b.gap_max_error.median, 0.3);
+  EXPECT_LE(b.gap_max_error.p90, 0.45);
+  EXPECT_GE(b.gap_samples_inside_3sigma, 0.95 * b.gap_samples);
 }
 
 }  // namespace

@@ -20,9 +20,29 @@
 
 namespace kestrel::fusion {
 
+/// The factor on a real IMU's white-noise densities (its sensor YAML's, measured at rest) for
+/// in-flight use, where vibration and unmodelled errors are far above them (Kalibr's and
+/// OpenVINS' users inflate them alike). Chosen on EuRoC V1_02 over 20 noise draws and checked
+/// on V1_01 (docs/fusion.md, "IMU noise for in-flight use"; config/imu_default.yaml). An IMU
+/// sensor YAML's `in_flight_noise_inflation` replaces it.
+inline constexpr double kInFlightImuNoiseInflation = 15.0;
+
 /// Every option of the fusion, with its default; YAML keys are the field names.
 struct FusionOptions {
   ImuNoiseDensities noise;          ///< from the IMU sensor YAML (EuRoC imu0/sensor.yaml)
+  /// The filter uses noise's white-noise densities (gyro, accel) times this factor; the bias
+  /// random walks as given. 0 (the default): not set here; set_imu_noise(), reading a real
+  /// IMU's sensor YAML, then makes it the YAML's `in_flight_noise_inflation` or
+  /// kInFlightImuNoiseInflation, and without a sensor file it is 1 (the densities as they are: a
+  /// simulated IMU draws exactly them). A value set here (options YAML) is kept.
+  double imu_noise_inflation = 0.0;
+  /// Camera-IMU time offset t_d (a frame stamped t was taken at IMU time t + t_d): its start
+  /// value, and whether it is estimated online (as OpenVINS and VINS-Fusion do) with the prior
+  /// std init_sigma_time_offset_s. 20 ms: a frame period of a 50 Hz camera, more than the few
+  /// ms of a hardware-triggered rig and the 5-15 ms of USB cameras with software stamps.
+  double time_offset_s = 0.0;
+  bool estimate_time_offset = true;
+  double init_sigma_time_offset_s = 0.02;
   double gravity_m_s2 = 9.81;       ///< world z is up; g = (0, 0, -gravity)
   /// Odometry camera in the body (IMU) frame, EuRoC T_BS of cam0 (identity if the odometry
   /// already reports body poses).
@@ -82,6 +102,10 @@ struct FusionOptions {
     v("gyroscope_random_walk", noise.gyro_walk);
     v("accelerometer_noise_density", noise.accel_noise);
     v("accelerometer_random_walk", noise.accel_walk);
+    v("imu_noise_inflation", imu_noise_inflation);
+    v("time_offset_s", time_offset_s);
+    v("estimate_time_offset", estimate_time_offset);
+    v("init_sigma_time_offset_s", init_sigma_time_offset_s);
     v("gravity_m_s2", gravity_m_s2);
     v("gate_probability", gate_probability);
     v("dropout_timeout_s", dropout_timeout_s);
@@ -107,8 +131,12 @@ struct FusionOptions {
 
   /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
   static FusionOptions load_yaml(const std::filesystem::path& path);
-  /// Takes the noise densities of an EuRoC IMU sensor.yaml, and its ranges where it has them.
+  /// Takes the noise densities of an EuRoC IMU sensor.yaml, and its ranges where it has them;
+  /// the in-flight inflation from its `in_flight_noise_inflation`, else
+  /// kInFlightImuNoiseInflation (a sensor file describes a real IMU).
   void set_imu_noise(const io::ImuNoise& imu);
+  /// The densities the filter uses: the white noise times imu_noise_inflation (1 if unset).
+  [[nodiscard]] ImuNoiseDensities filter_noise() const;
   /// One line for logs.
   [[nodiscard]] std::string describe() const;
   /// The YAML fields, as load_yaml() reads them.
@@ -135,6 +163,7 @@ struct FusedState {
   NominalState state;
   Eigen::Matrix<double, 9, 1> sigma;  ///< std of [p, theta, v]
   Eigen::Vector3d sigma_gyro_bias = Eigen::Vector3d::Zero();  ///< std of b_g
+  double sigma_time_offset_s = 0.0;                           ///< std of t_d
   std::uint32_t flags = kFlagNone;
   bool at_odometry = false;  ///< emitted at an odometry time stamp (after its update)
 };

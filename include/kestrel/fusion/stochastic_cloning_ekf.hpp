@@ -14,8 +14,10 @@
 
 namespace kestrel::fusion {
 
-/// Error-state layout: [dp, dtheta, dv, db_g, db_a, dp_d, dtheta_d], 21 entries. Attitude
-/// errors are local (body frame), q = q_hat * exp(dtheta) (thesis eqs. 4.3-4.4).
+/// Error-state layout: [dp, dtheta, dv, db_g, db_a, dp_d, dtheta_d, dt_d], 22 entries. Attitude
+/// errors are local (body frame), q = q_hat * exp(dtheta) (thesis eqs. 4.3-4.4); dt_d is the
+/// error of the camera-IMU time offset (the thesis' 21 entries plus the offset of OpenVINS and
+/// VINS-Fusion; Li & Mourikis, "Online temporal calibration", IJRR 2014).
 namespace idx {
 inline constexpr int kP = 0;
 inline constexpr int kTheta = 3;
@@ -24,8 +26,9 @@ inline constexpr int kBg = 9;
 inline constexpr int kBa = 12;
 inline constexpr int kPd = 15;
 inline constexpr int kThetaD = 18;
+inline constexpr int kTd = 21;    ///< camera-IMU time offset t_d [s]
 inline constexpr int kCore = 15;  ///< entries of the current (non-cloned) state
-inline constexpr int kDim = 21;
+inline constexpr int kDim = 22;
 }  // namespace idx
 
 using Vector15d = Eigen::Matrix<double, idx::kCore, 1>;
@@ -46,6 +49,16 @@ struct NominalState {
   Eigen::Vector3d p_clone_world = Eigen::Vector3d::Zero();
   Eigen::Quaterniond q_world_clone = Eigen::Quaterniond::Identity();
   TimeNs clone_t_ns = 0;
+  /// Camera-IMU time offset: a frame stamped t (odometry clock) was taken at IMU time t + t_d
+  /// (OpenVINS' convention).
+  double time_offset_s = 0.0;
+  /// Not states, but what the time offset moves the poses along (first order): the body rate
+  /// of the last IMU step (bias removed) and, at the clone, its body-frame velocity and rate.
+  /// The clone's velocity is kept in the clone's body frame, so that a yaw of the whole
+  /// state leaves the predicted measurement unchanged (no spurious yaw information).
+  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_clone_body = Eigen::Vector3d::Zero();
+  Eigen::Vector3d omega_clone_body = Eigen::Vector3d::Zero();
 
   [[nodiscard]] SE3 T_world_body() const { return SE3(q_world_body, p_world); }
   [[nodiscard]] SE3 T_world_clone() const { return SE3(q_world_clone, p_clone_world); }
@@ -106,8 +119,11 @@ class StochasticCloningEkf {
   [[nodiscard]] SE3 clone_first_estimate() const { return SE3(q_clone_first_, p_clone_first_); }
 
   /// Sets the state and the 15x15 covariance of the current state; the clone is set to the
-  /// current pose with its covariance (thesis: "at the beginning, we fix p_d = p").
-  void initialize(const NominalState& state, const Matrix15d& covariance);
+  /// current pose with its covariance (thesis: "at the beginning, we fix p_d = p"). The time
+  /// offset starts at state.time_offset_s with std time_offset_sigma_s, uncorrelated; 0 keeps
+  /// it fixed (not estimated: its gain row stays zero).
+  void initialize(const NominalState& state, const Matrix15d& covariance,
+                  double time_offset_sigma_s = 0.0);
 
   /// Propagates over dt_s > 0 with one reading (thesis eqs. 4.2, 4.5, 4.6; the transition
   /// is the exact Jacobian of the discrete step, so it equals I + cF dt to first order).
@@ -145,7 +161,8 @@ class StochasticCloningEkf {
                                               double dt_s, const Eigen::Vector3d& g_world);
   /// Discrete process noise dQ = G (dt cQ) G^T over the current state.
   static Matrix15d process_noise(const ImuNoiseDensities& noise, double dt_s);
-  /// h(x) = T_clone_body = T_world_clone^-1 T_world_body (thesis eq. 4.7).
+  /// h(x) = T_clone_body = T_world_clone^-1 T_world_body (thesis eq. 4.7), with both poses
+  /// moved to the frames' IMU times by the time offset (first order: p + v t_d, R exp(w t_d)).
   static SE3 predict_relative_pose(const NominalState& x);
   /// Residual [p_meas - p_pred, log(R_pred^T R_meas)] (attitude in the body frame).
   static Vector6d residual(const SE3& measured, const SE3& predicted);

@@ -33,6 +33,9 @@ struct ImuNoise {
   /// `gyroscope_range_rad_s`; not EuRoC fields, so usually absent).
   std::optional<double> accel_range_m_s2;
   std::optional<double> gyro_range_rad_s;
+  /// `in_flight_noise_inflation` (not an EuRoC field): the factor on the white-noise densities
+  /// for in-flight use (fusion::kInFlightImuNoiseInflation where absent).
+  std::optional<double> in_flight_noise_inflation;
 };
 
 /// Loads an EuRoC IMU sensor.yaml; a missing field is an InputError naming it.

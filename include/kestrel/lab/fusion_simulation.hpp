@@ -62,6 +62,13 @@ struct SimulationOptions {
   double vo_sigma_p_m = 0.01;     ///< per relative pose, per axis
   double vo_sigma_rot_deg = 0.5;  ///< per relative pose, per axis
   bool imu_noise = true;          ///< white noise and bias random walk as in fusion::FusionOptions
+  /// Off: each relative pose from the previous frame. On: from a keyframe, switched as in
+  /// `kestrel lab fuse-eval` (EurocExperimentOptions) when the true motion from it exceeds
+  /// 5 deg or 0.15 m, or after 20 frames; the same noise per measurement.
+  bool vo_keyframes = false;
+  double vo_keyframe_max_rot_deg = 5.0;
+  double vo_keyframe_max_trans_m = 0.15;
+  int vo_keyframe_max_frames = 20;
   /// Camera in the body: EuRoC V1_01 cam0 T_BS, rounded (exercises the extrinsics path).
   SE3 T_body_cam =
       SE3(SO3::from_matrix((Eigen::Matrix3d() << 0, -1, 0, 1, 0, 0, 0, 0, 1).finished()),
@@ -108,5 +115,25 @@ struct NeesResult {
 NeesResult monte_carlo_nees(int runs, const SimulationOptions& sim,
                             const fusion::FusionOptions& fusion, std::uint64_t seed,
                             const std::atomic<bool>* stop = nullptr);
+
+/// The online camera-IMU time offset on a simulated flight: the odometry's frames are stamped
+/// t - offset_s for IMU time t (a frame stamped t was taken at IMU time t + t_d), the filter
+/// starts at the true pose with zero biases and t_d = options.time_offset_s.
+struct TimeOffsetRun {
+  double true_offset_s = 0.0;
+  double final_estimate_s = 0.0, final_sigma_s = 0.0;
+  /// The first time after which |t_d estimate - offset| stays below `tolerance_s` to the end;
+  /// negative if it never does.
+  double converged_after_s = -1.0;
+  /// The first time |t_d estimate - offset| is below `tolerance_s` (it may leave again);
+  /// negative if never.
+  double first_within_s = -1.0;
+  double fused_rmse_m = 0.0;         ///< position, at every odometry stamp, whole flight
+  double fused_rmse_after_m = 0.0;   ///< the same from `compare_after_s` on
+  std::vector<double> t_s, estimate_s;
+};
+TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::FusionOptions& fusion,
+                              double offset_s, std::uint64_t seed, double tolerance_s = 1e-3,
+                              double compare_after_s = 10.0);
 
 }  // namespace kestrel::lab
