@@ -15,6 +15,7 @@
 #include "kestrel/lab/fusion_experiments.hpp"
 #include "kestrel/lab/fusion_simulation.hpp"
 #include "option_checks.hpp"
+#include "progress.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -133,6 +134,9 @@ void run_fuse_eval(const FuseEvalArgs& a) {
     // The first seed's runs in full; with --seeds N the spread of the targets' figures over
     // the N draws (each run is one draw of the measurement noise).
     std::vector<lab::EurocExperimentResult> v1_02, v1_01;
+    // Progress over the draws on a terminal (silent in logs); the first draw's full report
+    // goes to stdout before the bar starts.
+    ProgressBar progress("noise draws", static_cast<std::size_t>(a.seeds));
     for (int k = 0; k < a.seeds; ++k) {
       if (interrupt.requested()) {
         std::cout << std::flush;
@@ -145,10 +149,10 @@ void run_fuse_eval(const FuseEvalArgs& a) {
       v1_01.push_back(lab::run_v1_01(data / "euroc" / "V1_01_easy_part1", options, eo));
       if (k == 0)
         std::cout << lab::format_result(v1_02.front()) << lab::format_result(v1_01.front());
-      if (a.seeds > 1) std::cerr << "\rnoise draws: " << k + 1 << " of " << a.seeds << std::flush;
+      if (a.seeds > 1) progress.update(static_cast<std::size_t>(k + 1));
     }
+    progress.finish();
     if (a.seeds > 1) {
-      std::cerr << "\n";
       std::cout << lab::format_summary(lab::summarise_draws(v1_02))
                 << lab::format_summary(lab::summarise_draws(v1_01));
     }
