@@ -4,31 +4,14 @@
 #include <random>
 
 #include "kestrel/fusion/stochastic_cloning_ekf.hpp"
+#include "random_states.hpp"
 
 namespace kestrel::fusion {
 namespace {
 
 using Eigen::Vector3d;
 
-NominalState random_state(std::mt19937_64& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  auto v3 = [&](double s) {
-    // One draw per statement: the order of draws is fixed (it is not within one call).
-    const double x = n(rng);
-    const double y = n(rng);
-    const double z = n(rng);
-    return Vector3d(s * x, s * y, s * z);
-  };
-  NominalState x;
-  x.p_world = v3(2.0);
-  x.q_world_body = SO3::exp(v3(1.0)).unit_quaternion();
-  x.v_world = v3(1.0);
-  x.gyro_bias_rad_s = v3(0.02);
-  x.accel_bias_m_s2 = v3(0.1);
-  x.p_clone_world = x.p_world + v3(0.3);
-  x.q_world_clone = SO3::exp(v3(1.0)).unit_quaternion();
-  return x;
-}
+using random_states::random_state;
 
 ImuReading random_reading(std::mt19937_64& rng) {
   std::normal_distribution<double> n(0.0, 1.0);

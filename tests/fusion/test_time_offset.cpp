@@ -12,6 +12,7 @@
 #include "kestrel/fusion/stochastic_cloning_ekf.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/lab/fusion_simulation.hpp"
+#include "random_states.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::fusion {
@@ -19,36 +20,12 @@ namespace {
 
 using Eigen::Vector3d;
 
-// A random state with an offset of up to tens of ms and fast rates (1.5 rad/s per axis), so
-// that the shifted frames differ visibly from the unshifted ones.
-NominalState random_state_with_offset(std::mt19937_64& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  auto v3 = [&](double s) {
-    const double x = n(rng);
-    const double y = n(rng);
-    const double z = n(rng);
-    return Vector3d(s * x, s * y, s * z);
-  };
-  NominalState x;
-  x.p_world = v3(2.0);
-  x.q_world_body = SO3::exp(v3(1.0)).unit_quaternion();
-  x.v_world = v3(1.0);
-  x.gyro_bias_rad_s = v3(0.02);
-  x.accel_bias_m_s2 = v3(0.1);
-  x.p_clone_world = x.p_world + v3(0.3);
-  x.q_world_clone = SO3::exp(v3(1.0)).unit_quaternion();
-  x.time_offset_s = 0.03 * n(rng);
-  x.omega_body = v3(1.5);
-  x.v_clone_body = v3(1.0);
-  x.omega_clone_body = v3(1.5);
-  return x;
-}
 
 TEST(TimeOffset, MeasurementJacobianMatchesFiniteDifferencesWithAnOffset) {
   std::mt19937_64 rng(23);
   double largest_td_column = 0.0;
   for (int trial = 0; trial < 50; ++trial) {
-    const NominalState x = random_state_with_offset(rng);
+    const NominalState x = random_states::random_state(rng, true);
     const Matrix6xs H = StochasticCloningEkf::measurement_jacobian(x);
     const SE3 z = StochasticCloningEkf::predict_relative_pose(x);
     const double h = 1e-6;
@@ -84,7 +61,7 @@ TEST(TimeOffset, AYawOfTheWholeStateStaysUnseenWithAnOffset) {
   // the shifted measurement unchanged: H N = 0 with t_d != 0, as at t_d = 0.
   std::mt19937_64 rng(29);
   for (int trial = 0; trial < 50; ++trial) {
-    const NominalState x = random_state_with_offset(rng);
+    const NominalState x = random_states::random_state(rng, true);
     Eigen::Matrix<double, idx::kDim, 4> N = Eigen::Matrix<double, idx::kDim, 4>::Zero();
     const Vector3d z = Vector3d::UnitZ();
     N.block<3, 3>(idx::kP, 0).setIdentity();

@@ -2,6 +2,10 @@
 // targets and figures are in docs/fusion.md). Skips where the shared data is absent.
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <utility>
+#include <vector>
+
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/lab/fusion_experiments.hpp"
@@ -16,6 +20,20 @@ fusion::FusionOptions wide_bias_prior() {
   o.init_sigma_gyro_bias_rad_s = 0.1;
   o.init_sigma_accel_bias_m_s2 = 0.2;
   return o;
+}
+
+/// Summaries of V1_02 and V1_01 over the noise draws (seeds) 1..n, with options `o`, `eo`.
+std::pair<EurocSeedSummary, EurocSeedSummary> over_draws(const fusion::FusionOptions& o,
+                                                         EurocExperimentOptions eo,
+                                                         std::uint64_t n) {
+  std::vector<EurocExperimentResult> v1_02, v1_01;
+  for (std::uint64_t seed = 1; seed <= n; ++seed) {
+    eo.seed = seed;
+    v1_02.push_back(
+        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
+    v1_01.push_back(run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, eo));
+  }
+  return {summarise_draws(v1_02), summarise_draws(v1_01)};
 }
 
 TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
@@ -124,14 +142,7 @@ TEST(FusionEuroc, KeyframeOdometryOverNoiseDraws) {
   EurocExperimentOptions eo;
   eo.vo_keyframes = true;
   eo.imu_noise_scale = 10.0;
-  std::vector<EurocExperimentResult> v1_02, v1_01;
-  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
-    eo.seed = seed;
-    v1_02.push_back(
-        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
-    v1_01.push_back(run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, eo));
-  }
-  const EurocSeedSummary a = summarise_draws(v1_02), b = summarise_draws(v1_01);
+  const auto [a, b] = over_draws(o, eo, 8);
   std::cout << format_summary(a) << format_summary(b);
   EXPECT_LE(a.mean_fused_m, 0.5 * a.mean_chained_m);  // issue target, on the mean
   EXPECT_LE(b.mean_fused_m, 0.5 * b.mean_chained_m);  // issue target, on the mean
@@ -266,14 +277,7 @@ TEST(FusionEuroc, DefaultsMeetTheTargetsOverTwentyDraws) {
   KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/imu0/data.csv");
   const fusion::FusionOptions o = wide_bias_prior();
   EurocExperimentOptions eo;  // the defaults
-  std::vector<EurocExperimentResult> v1_02, v1_01;
-  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
-    eo.seed = seed;
-    v1_02.push_back(
-        run_v1_02(test::shared_data_dir() / "euroc/V1_02_medium_imu_groundtruth", o, eo));
-    v1_01.push_back(run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, eo));
-  }
-  const EurocSeedSummary a = summarise_draws(v1_02), b = summarise_draws(v1_01);
+  const auto [a, b] = over_draws(o, eo, 20);
   std::cout << format_summary(a) << format_summary(b);
   EXPECT_LE(a.ratio.median, 0.4);
   EXPECT_LE(a.ratio.max, 0.7);
