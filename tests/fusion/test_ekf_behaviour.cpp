@@ -184,6 +184,15 @@ TEST(FusionBehaviour, NanSamplesAreDroppedAndCountedNeverPropagated) {
   (void)e.flush(false);
   EXPECT_EQ(e.counters().updates_invalid, 1u);
   EXPECT_TRUE(e.filter().state().all_finite());
+  // So is one whose covariance was never set (the default is NaN, not uninitialised memory).
+  RelativePoseMeasurement unset;
+  unset.t_ref_ns = e.filter().state().clone_t_ns;
+  unset.t_ns = unset.t_ref_ns + 50'000'000;
+  unset.T_ref_cur = bad.T_ref_cur;
+  e.add_relative_pose(unset);
+  (void)e.flush(false);
+  EXPECT_EQ(e.counters().updates_invalid, 2u);
+  EXPECT_TRUE(e.filter().state().all_finite());
   // The filter itself refuses NaN readings and non-positive steps with an exception.
   StochasticCloningEkf ekf = e.filter();
   EXPECT_THROW(ekf.propagate({Vector3d::Constant(std::nan("")), Vector3d::Zero()}, 0.005), std::invalid_argument);

@@ -173,7 +173,10 @@ struct RelativePoseMeasurement {
   TimeNs t_ref_ns = 0;
   TimeNs t_ns = 0;
   SE3 T_ref_cur;          ///< camera frame at t_ns in the camera frame at t_ref_ns
-  Matrix6d covariance;    ///< left perturbation [v, w] in the reference frame (TrackResult's)
+  /// Left perturbation [v, w] in the reference frame (TrackResult's). NaN until set: a
+  /// measurement whose covariance was never filled in is rejected as invalid (counted in
+  /// FusionCounters::updates_invalid) instead of being applied with whatever the memory held.
+  Matrix6d covariance = Matrix6d::Constant(std::numeric_limits<double>::quiet_NaN());
   /// The frame at t_ns becomes the odometry's reference: later measurements start there, so
   /// the filter re-clones after this update (frame-to-frame odometry: always true). False
   /// for keyframe odometry while the keyframe is kept: the clone of t_ref_ns stays and the
