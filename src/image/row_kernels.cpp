@@ -84,6 +84,20 @@ void distorted_ray_row_scalar(const RayRow& ray, const DistortedPinhole& cam, fl
   distorted_ray_columns(ray, cam, map_x, map_y, 0, width);
 }
 
+void remap_bilinear_row_scalar(const float* src, int stride, const std::int32_t* index,
+                               const float* wx, const float* wy, float* out, int width) {
+  for (int x = 0; x < width; ++x) {
+    const float* p = src + index[x];
+    const float top = p[0] + wx[x] * (p[1] - p[0]);
+    const float bottom = p[stride] + wx[x] * (p[stride + 1] - p[stride]);
+    out[x] = top + wy[x] * (bottom - top);
+  }
+}
+
+void remap_nearest_row_scalar(const float* src, const std::int32_t* index, float* out, int width) {
+  for (int x = 0; x < width; ++x) out[x] = index[x] >= 0 ? src[index[x]] : 0.0F;
+}
+
 }  // namespace kestrel::image::kernels
 #endif  // KESTREL_IMAGE_ROW_KERNELS_SCALAR
 
@@ -215,6 +229,45 @@ void DistortedRayRow(const RayRow& ray, const DistortedPinhole& cam, float* map_
   distorted_ray_columns(ray, cam, map_x, map_y, u, width);
 }
 
+void RemapBilinearRow(const float* src, int stride, const std::int32_t* index, const float* wx,
+                      const float* wy, float* out, int width) {
+  const DF df;
+  const DI di;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto one = hn::Set(di, 1);
+  const auto down = hn::Set(di, stride);
+  int x = 0;
+  for (; x + n <= width; x += n) {
+    const auto i00 = hn::LoadU(di, index + x);
+    const auto i10 = hn::Add(i00, down);
+    const VF a = hn::GatherIndex(df, src, i00);
+    const VF b = hn::GatherIndex(df, src, hn::Add(i00, one));
+    const VF c = hn::GatherIndex(df, src, i10);
+    const VF d = hn::GatherIndex(df, src, hn::Add(i10, one));
+    const VF fx = hn::LoadU(df, wx + x);
+    const VF top = hn::MulAdd(fx, hn::Sub(b, a), a);
+    const VF bottom = hn::MulAdd(fx, hn::Sub(d, c), c);
+    hn::StoreU(hn::MulAdd(hn::LoadU(df, wy + x), hn::Sub(bottom, top), top), df, out + x);
+  }
+  remap_bilinear_row_scalar(src, stride, index + x, wx + x, wy + x, out + x, width - x);
+}
+
+void RemapNearestRow(const float* src, const std::int32_t* index, float* out, int width) {
+  const DF df;
+  const DI di;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const auto zero = hn::Zero(di);
+  int x = 0;
+  for (; x + n <= width; x += n) {
+    const auto i = hn::LoadU(di, index + x);
+    const auto outside = hn::RebindMask(df, hn::Lt(i, zero));
+    // Outside pixels read src[0] (always valid) and are then zeroed.
+    const VF v = hn::GatherIndex(df, src, hn::Max(i, zero));
+    hn::StoreU(hn::IfThenZeroElse(outside, v), df, out + x);
+  }
+  remap_nearest_row_scalar(src, index + x, out + x, width - x);
+}
+
 const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
 
 }  // namespace kestrel::image::kernels::HWY_NAMESPACE
@@ -228,6 +281,8 @@ HWY_EXPORT(Mean2x2Row);
 HWY_EXPORT(Depth2x2Row);
 HWY_EXPORT(CentralGradientRow);
 HWY_EXPORT(DistortedRayRow);
+HWY_EXPORT(RemapBilinearRow);
+HWY_EXPORT(RemapNearestRow);
 HWY_EXPORT(TargetName);
 
 void bgr_to_intensity_row(const std::uint8_t* bgr, float* out, int width) {
@@ -251,6 +306,15 @@ void central_gradient_row(const float* up, const float* mid, const float* down, 
 void distorted_ray_row(const RayRow& ray, const DistortedPinhole& cam, float* map_x, float* map_y,
                        int width) {
   HWY_DYNAMIC_DISPATCH(DistortedRayRow)(ray, cam, map_x, map_y, width);
+}
+
+void remap_bilinear_row(const float* src, int stride, const std::int32_t* index, const float* wx,
+                        const float* wy, float* out, int width) {
+  HWY_DYNAMIC_DISPATCH(RemapBilinearRow)(src, stride, index, wx, wy, out, width);
+}
+
+void remap_nearest_row(const float* src, const std::int32_t* index, float* out, int width) {
+  HWY_DYNAMIC_DISPATCH(RemapNearestRow)(src, index, out, width);
 }
 
 const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }

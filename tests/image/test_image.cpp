@@ -1,6 +1,8 @@
 // image/: intensity, pyramids (incl. depth across occlusions), gradients, bilinear sampling,
 // undistortion maps.
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <random>
@@ -119,6 +121,50 @@ TEST(Undistorter, MapsAgreeWithTheCameraModel) {
   }
   Undistorter none(PinholeCamera({500, 500, 320, 240, 640, 480}));
   EXPECT_TRUE(none.is_identity());
+}
+
+// The remap kernels against OpenCV's cv::remap on the same maps: depth (nearest) bit for bit;
+// intensity within what OpenCV's 1/32-pixel fixed-point weights lose (at most half a step of
+// 1/32 px in x and y times the image's steepest slope), and in place as well as apart.
+TEST(Undistorter, AgreesWithOpenCvRemap) {
+  const PinholeCamera fr1({517.3, 516.5, 318.6, 255.3, 640, 480},
+                          {0.2624, -0.9531, -0.0054, 0.0026, 1.1633});
+  const Undistorter und(fr1);
+  cv::Mat img(480, 640, CV_32FC1), depth(480, 640, CV_32FC1);
+  cv::randu(depth, 0.5, 4.0);
+  depth.at<float>(100, 100) = 0.0F;
+  constexpr double kSlope = 0.02;  // per pixel, the steepest of the image below
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      img.at<float>(v, u) = static_cast<float>(0.5 + 0.25 * std::sin(kSlope / 0.25 * u) +
+                                               0.2 * std::cos(0.01 * v + 0.003 * u));
+    }
+  }
+  cv::Mat K = (cv::Mat_<double>(3, 3) << 517.3, 0, 318.6, 0, 516.5, 255.3, 0, 0, 1);
+  cv::Mat D = (cv::Mat_<double>(1, 5) << 0.2624, -0.9531, -0.0054, 0.0026, 1.1633);
+  cv::Mat m1, m2, map_float, nearest, none1, none2;
+  cv::initUndistortRectifyMap(K, D, cv::Mat(), K, img.size(), CV_16SC2, m1, m2);
+  cv::initUndistortRectifyMap(K, D, cv::Mat(), K, img.size(), CV_32FC2, map_float, cv::noArray());
+  cv::convertMaps(map_float, none1, nearest, none2, CV_16SC2, true);
+  cv::Mat cv_img, cv_depth;
+  cv::remap(img, cv_img, m1, m2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(depth, cv_depth, nearest, cv::noArray(), cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+            cv::Scalar(0));
+  cv::Mat out, dout;
+  und.undistort_intensity(img, out);
+  und.undistort_depth(depth, dout);
+  EXPECT_EQ(cv::norm(dout, cv_depth, cv::NORM_INF), 0.0);
+  EXPECT_LE(cv::norm(out, cv_img, cv::NORM_INF), 2.0 * kSlope / 64.0 + 1e-5);
+  // In place: the same result.
+  cv::Mat in_place = img.clone();
+  und.undistort_intensity(in_place, in_place);
+  EXPECT_EQ(cv::norm(in_place, out, cv::NORM_INF), 0.0);
+  // Not a float image: OpenCV's remap, as before.
+  cv::Mat img8, out8, cv_out8;
+  img.convertTo(img8, CV_8U, 255.0);
+  und.undistort_intensity(img8, out8);
+  cv::remap(img8, cv_out8, m1, m2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  EXPECT_EQ(cv::norm(out8, cv_out8, cv::NORM_INF), 0.0);
 }
 
 }  // namespace

@@ -166,5 +166,67 @@ TEST(ImageRowKernels, Depth2x2KnownBlocks) {
   });
 }
 
+TEST(ImageRowKernels, RemapBilinearEqualsTheScalarReferenceWithinFloatRounding) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<float> value(0.0F, 1.0F);
+  constexpr int kStride = 80;
+  std::vector<float> src(kStride * 20);
+  for (auto& v : src) v = value(rng);
+  std::uniform_int_distribution<int> col(0, kStride - 2), row(0, 18);
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      const auto n = static_cast<std::size_t>(w);
+      std::vector<std::int32_t> index(n);
+      std::vector<float> wx(n), wy(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        index[i] = row(rng) * kStride + col(rng);
+        wx[i] = value(rng);
+        wy[i] = value(rng);
+      }
+      if (w > 1) {  // the border cases: one tap only
+        wx[0] = 0.0F;
+        wy[0] = 1.0F;
+      }
+      std::vector<float> simd(n, -1.0F), ref(simd);
+      remap_bilinear_row(src.data(), kStride, index.data(), wx.data(), wy.data(), simd.data(), w);
+      remap_bilinear_row_scalar(src.data(), kStride, index.data(), wx.data(), wy.data(), ref.data(),
+                                w);
+      for (std::size_t i = 0; i < n; ++i) ASSERT_NEAR(simd[i], ref[i], 1e-6F) << "column " << i;
+      // The reference itself: a blend of the four taps; with weights 0 and 1, the lower-left one.
+      if (w > 1) {
+        EXPECT_NEAR(ref[0], src[static_cast<std::size_t>(index[0] + kStride)], 1e-6F);
+      }
+    }
+  });
+}
+
+TEST(ImageRowKernels, RemapNearestEqualsTheScalarReferenceAndZeroesOutsidePixels) {
+  std::mt19937 rng(23);
+  std::vector<float> src(200);
+  for (std::size_t i = 0; i < src.size(); ++i) src[i] = static_cast<float>(i) + 0.5F;
+  src[7] = std::numeric_limits<float>::quiet_NaN();  // copied as it is, not invented
+  std::uniform_int_distribution<int> idx(-3, 199);
+  on_every_simd_target([&] {
+    for (const int w : kWidths) {
+      const auto n = static_cast<std::size_t>(w);
+      std::vector<std::int32_t> index(n);
+      for (auto& i : index) i = idx(rng);
+      if (w > 1) {
+        index[0] = -1;
+        index[1] = 7;
+      }
+      std::vector<float> simd(n, -1.0F), ref(simd);
+      remap_nearest_row(src.data(), index.data(), simd.data(), w);
+      remap_nearest_row_scalar(src.data(), index.data(), ref.data(), w);
+      EXPECT_TRUE(same_bits(simd, ref)) << "width " << w;
+      std::vector<float> expected(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        expected[i] = index[i] < 0 ? 0.0F : src[static_cast<std::size_t>(index[i])];
+      }
+      EXPECT_TRUE(same_bits(ref, expected)) << "width " << w;
+    }
+  });
+}
+
 }  // namespace
 }  // namespace kestrel::image::kernels

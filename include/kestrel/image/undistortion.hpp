@@ -2,7 +2,9 @@
 // onto the pinhole camera with the same K, by precomputed maps (cv::initUndistortRectifyMap).
 #pragma once
 
+#include <cstdint>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "kestrel/geometry/pinhole_camera.hpp"
 
@@ -10,7 +12,9 @@ namespace kestrel::image {
 
 class Undistorter {
  public:
-  /// Precomputes the maps once (fixed-point CV_16SC2 maps: cv::remap's fast path).
+  /// Precomputes the maps once: for float images, each output pixel's source index and
+  /// bilinear weights (the SIMD row kernels of row_kernels.hpp); for other types, cv::remap's
+  /// fixed-point maps.
   explicit Undistorter(const PinholeCamera& distorted);
 
   /// The camera of the undistorted images: same K, no distortion.
@@ -26,8 +30,15 @@ class Undistorter {
  private:
   PinholeCamera undistorted_;
   bool identity_ = true;
-  cv::Mat map1_, map2_;      // bilinear (fixed point)
-  cv::Mat map_nearest_;      // CV_16SC2 integer map for nearest-neighbour
+  // Float images (every frame of the tracker): per output pixel, the index of the top-left
+  // source pixel of its bilinear block and the weights, borders replicated by clamping the
+  // block into the image; and the nearest source pixel's index, -1 outside the image.
+  std::vector<std::int32_t> bilinear_index_;
+  std::vector<float> weight_x_, weight_y_;
+  std::vector<std::int32_t> nearest_index_;
+  // Other types (8-bit images): cv::remap's fixed-point maps.
+  cv::Mat map1_, map2_;  // bilinear (fixed point)
+  cv::Mat map_nearest_;  // CV_16SC2 integer map for nearest-neighbour
 };
 
 }  // namespace kestrel::image
