@@ -3,7 +3,7 @@
 // the 2014 training scenes, scored on their non-occluded pixels): bad-pixel rate (> 1 px or
 // missing, over pixels with known truth) and fill; the speed per 752x480 EuRoC pair (64
 // disparities, block 9, rectification excluded) and the fill rate over the EuRoC V1_01 part.
-// Usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed] [--row NAME]
+// Usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed] [--row NAME] [--sgm-vs-sgbm]
 #include <hwy/targets.h>
 
 #include <algorithm>
@@ -196,13 +196,17 @@ void print_time(const char* name, std::pair<double, double> t) {
 
 void print_usage(std::FILE* to) {
   std::fprintf(to,
-               "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed] [--row NAME]\n"
+               "usage: kestrel_bench_stereo [DATA_DIR] [--quick] [--speed] [--row NAME] "
+               "[--sgm-vs-sgbm]\n"
                "  DATA_DIR  folder with middlebury/{tsukuba,venus,teddy}, middlebury2014/<scene>\n"
                "            and euroc/V1_01_easy_part1 (default: %s)\n"
                "  --quick   5 EuRoC pairs and 5 timing repeats instead of all pairs and 30\n"
                "  --speed   Kestrel's speed rows only (no Middlebury, no peers, no fill rate)\n"
                "  --row NAME  with --speed: that speed row only (e.g. 'kestrel census'), to\n"
                "            profile one matcher (scripts/instruction_counts.sh)\n"
+               "  --sgm-vs-sgbm  only kestrel sgm and OpenCV StereoSGBM on one EuRoC pair, one\n"
+               "            match of each in turn (30 rounds; --quick 5): both medians and their\n"
+               "            ratio, thread CPU (the fair comparison on a loaded machine)\n"
                "  --help    this text\n",
                KESTREL_DEFAULT_DATA_DIR);
 }
@@ -274,7 +278,34 @@ void print_middlebury_table(const std::vector<Peer>& peers, const fs::path& data
   }
 }
 
-int run(const fs::path& data, bool quick, bool speed_only, const std::string& only_row) {
+/// kestrel sgm and StereoSGBM alternately, one match each per round, so that both see the same
+/// load: thread-CPU medians and their ratio.
+void sgm_vs_sgbm(const cv::Mat& l, const cv::Mat& r, int num, int rounds) {
+  SgmMatcher sgm(sgm_options(num));
+  auto sgbm = make_sgbm(num);
+  cv::Mat d, d16;
+  sgm.match(l, r, d);  // warm up: sizes buffers
+  sgbm->compute(l, r, d16);
+  std::vector<double> a, b;
+  for (int i = 0; i < rounds; ++i) {
+    double c0 = thread_cpu_ms();
+    sgm.match(l, r, d);
+    a.push_back(thread_cpu_ms() - c0);
+    c0 = thread_cpu_ms();
+    sgbm->compute(l, r, d16);
+    b.push_back(thread_cpu_ms() - c0);
+  }
+  std::sort(a.begin(), a.end());
+  std::sort(b.begin(), b.end());
+  const double ma = a[a.size() / 2], mb = b[b.size() / 2];
+  std::printf(
+      "sgm vs SGBM, %dx%d, %d disparities, one thread, %d alternate rounds, thread CPU "
+      "(kernels %s): kestrel sgm %.2f ms, opencv StereoSGBM %.2f ms, ratio %.3f\n",
+      l.cols, l.rows, num, rounds, SgmMatcher::simd_target(), ma, mb, ma / mb);
+}
+
+int run(const fs::path& data, bool quick, bool speed_only, const std::string& only_row,
+        bool vs_sgbm) {
   cv::setNumThreads(0);  // OpenCV runs sequentially: one core for every peer
   using kestrel::sensor::MatchingCost;
 
@@ -306,6 +337,11 @@ int run(const fs::path& data, bool quick, bool speed_only, const std::string& on
   }
   const auto& [l0, r0] = rectified.front();
   const int repeats = quick ? 5 : 30;
+  if (vs_sgbm) {
+    choose_simd_target();
+    sgm_vs_sgbm(l0, r0, num, repeats);
+    return 0;
+  }
   BlockMatcher sad(kestrel_options(num, MatchingCost::kSad, true));
   BlockMatcher sad_dense(kestrel_options(num, MatchingCost::kSad, false));
   BlockMatcher census(kestrel_options(num, MatchingCost::kCensus, true));
@@ -365,13 +401,16 @@ int run(const fs::path& data, bool quick, bool speed_only, const std::string& on
 
 int main(int argc, char** argv) {
   fs::path data = KESTREL_DEFAULT_DATA_DIR;
-  bool quick = false, speed_only = false, have_data = false;
+  bool quick = false, speed_only = false, have_data = false, vs_sgbm = false;
   std::string only_row;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--quick") {
       quick = true;
     } else if (arg == "--speed") {
+      speed_only = true;
+    } else if (arg == "--sgm-vs-sgbm") {
+      vs_sgbm = true;
       speed_only = true;
     } else if (arg == "--row" && i + 1 < argc) {
       only_row = argv[++i];
@@ -397,7 +436,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "kestrel_bench_stereo: error: --row needs --speed\n");
       return 2;
     }
-    return run(data, quick, speed_only, only_row);
+    return run(data, quick, speed_only, only_row, vs_sgbm);
   } catch (const kestrel::InputError& e) {
     std::fprintf(stderr, "kestrel_bench_stereo: error: %s\n", e.what());
     return 1;

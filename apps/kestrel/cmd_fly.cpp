@@ -32,6 +32,7 @@ struct FlyArgs {
   std::string projector;
   std::string vo_reference;
   std::string vehicle_yaml, controller_yaml, imu_yaml, safety_yaml, tracker_yaml, matcher_yaml;
+  std::string stereo_matcher, sgm_yaml;  // --stereo-matcher sad|census|sgm, --sgm-options FILE
 };
 
 void run_fly(const FlyArgs& a) {
@@ -54,8 +55,22 @@ void run_fly(const FlyArgs& a) {
   if (!a.tracker_yaml.empty()) {
     options.vision.tracker = odometry::DirectTrackerOptions::load(a.tracker_yaml);
   }
-  if (!a.matcher_yaml.empty()) {
-    options.vision.matcher = sensor::BlockMatcherOptions::load_yaml(a.matcher_yaml);
+  {
+    sensor::MatcherSelection selection{std::nullopt, a.matcher_yaml, a.sgm_yaml};
+    if (!a.stereo_matcher.empty()) {
+      try {
+        selection.kind = sensor::StereoMatcherKind{};
+        parse_option(a.stereo_matcher, *selection.kind);
+      } catch (const std::invalid_argument& e) {
+        throw InputError(std::string("fly: --stereo-matcher: ") + e.what());
+      }
+    }
+    sensor::StereoFrontEndOptions matching;
+    sensor::apply_matcher_selection(selection, "fly", matching,
+                                    {"--stereo-matcher", "--matcher", "--sgm-options"});
+    options.vision.matcher = matching.matcher;
+    options.vision.matcher_kind = matching.kind;
+    options.vision.sgm = matching.sgm;
   }
   if (!a.projector.empty()) options.vision.projector_mode = sim::parse_projector_mode(a.projector);
   if (!a.vo_reference.empty()) {
@@ -87,6 +102,7 @@ void run_fly(const FlyArgs& a) {
       .input("--safety", a.safety_yaml)
       .input("--tracker", a.tracker_yaml)
       .input("--matcher", a.matcher_yaml)
+      .input("--sgm-options", a.sgm_yaml)
       .folder("--out", a.out);
 
   flight::FlightSimulation simulation(std::move(scenario), options);
@@ -161,6 +177,9 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--safety", args->safety_yaml, "Safety options YAML");
   cmd->add_option("--tracker", args->tracker_yaml, "Direct-odometry options YAML");
   cmd->add_option("--matcher", args->matcher_yaml, "Block-matcher options YAML");
+  cmd->add_option("--stereo-matcher", args->stereo_matcher,
+                  "Stereo matcher: sad (default), census or sgm (range: --matcher's)");
+  cmd->add_option("--sgm-options", args->sgm_yaml, "Semi-global matcher options YAML (sgm)");
   cmd->callback([args] { run_fly(*args); });
 }
 

@@ -54,6 +54,8 @@ struct OdometryArgs {
   // --stereo: an EuRoC folder, block-matched and tracked in disparity space.
   bool stereo = false;
   std::filesystem::path matcher_options;
+  std::string matcher;                // --matcher sad|census|sgm; empty: the options' cost
+  std::filesystem::path sgm_options;  // --sgm-options (--matcher sgm)
   int block = 0;          // 0: from the matcher options (default 9)
   int max_disparity = 0;  // 0: ditto (default 64)
   int min_disparity = -1;
@@ -314,6 +316,25 @@ sensor::BlockMatcherOptions matcher_options(const OdometryArgs& args) {
   return o;
 }
 
+// The front end's matcher: --matcher (kind), the block matcher's options (its file, then the
+// flags; their range is every matcher's) and --sgm-options.
+sensor::StereoFrontEndOptions front_end_options(const OdometryArgs& args) {
+  sensor::MatcherSelection selection{std::nullopt, args.matcher_options, args.sgm_options};
+  if (!args.matcher.empty()) {
+    selection.kind = sensor::StereoMatcherKind{};
+    try {
+      parse_option(args.matcher, *selection.kind);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("--matcher: ") + e.what());
+    }
+  }
+  sensor::StereoFrontEndOptions o;
+  sensor::apply_matcher_selection(selection, "odometry", o,
+                                  {"--matcher", "--matcher-options", "--sgm-options"});
+  o.matcher = matcher_options(args);
+  return o;
+}
+
 /// EuRoC ground truth as poses of the rectified left camera, T_world_rect = T_world_cam0 *
 /// T_cam0_rect with T_cam0_rect = (R_rect_left^T, 0). A body ground truth (state CSVs) gives
 /// T_world_cam0 = T_world_body * T_BS (cam0 sensor.yaml). groundtruth_cam0/ (ORB-SLAM3's, V1_01)
@@ -353,12 +374,13 @@ void run_stereo_odometry(const OdometryArgs& args) {
   const odometry::DirectTrackerOptions options =
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);
-  const sensor::BlockMatcherOptions matching = matcher_options(args);
+  const sensor::StereoFrontEndOptions matching = front_end_options(args);
   const io::EurocSequence sequence(args.dataset);
   io::OutputGuard outputs(kOdometryCommand, args.force);
   outputs.input("dataset", args.dataset)
       .input("--config", args.config)
-      .input("--matcher-options", args.matcher_options);
+      .input("--matcher-options", args.matcher_options)
+      .input("--sgm-options", args.sgm_options);
   for (const char* file :
        {"cam0/data.csv", "cam1/data.csv", "cam0/sensor.yaml", "cam1/sensor.yaml"}) {
     outputs.input("dataset", sequence.mav0() / file);
@@ -373,7 +395,7 @@ void run_stereo_odometry(const OdometryArgs& args) {
             << "calibration: " << calibration.describe() << "\n"
             << "rectified: f " << rig.f << " px, c (" << rig.cu << ", " << rig.cv << "), baseline "
             << rig.baseline_m << " m, " << rig.width << "x" << rig.height << "\n"
-            << "matcher: " << matching.describe() << "\n";
+            << "matcher: " << stereo.front_end().matcher().describe() << "\n";
   print_options(options, args);
   if (sequence.stereo_size() == 0) {
     throw InputError(args.dataset.string() +
@@ -431,10 +453,10 @@ void run_odometry(const OdometryArgs& args) {
     return;
   }
   if (!args.matcher_options.empty() || args.block != 0 || args.max_disparity != 0 ||
-      args.min_disparity >= 0) {
+      args.min_disparity >= 0 || !args.matcher.empty() || !args.sgm_options.empty()) {
     throw InputError(
-        "--block, --max-disparity, --min-disparity and --matcher-options need "
-        "--stereo");
+        "--block, --max-disparity, --min-disparity, --matcher-options, --matcher and "
+        "--sgm-options need --stereo");
   }
   std::string camera_name = args.camera;
   if (camera_name.empty()) camera_name = default_camera_for(args.dataset);
@@ -556,6 +578,11 @@ void add_odometry_command(CLI::App& app) {
       ->check(whole_in(0, 1023, "a whole number of pixels from 0 to 1023"));
   cmd->add_option("--matcher-options", args->matcher_options,
                   "--stereo: block matcher options YAML (the flags above override it)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--matcher", args->matcher,
+                  "--stereo: stereo matcher, sad (default), census or sgm (docs/stereo.md)");
+  cmd->add_option("--sgm-options", args->sgm_options,
+                  "--stereo --matcher sgm: semi-global matcher options YAML")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--force", args->force, "overwrite an output file written by something else");
   cmd->add_flag("--strict", args->strict,

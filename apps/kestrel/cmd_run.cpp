@@ -90,7 +90,9 @@ void print_report(const pipeline::PipelineReport& r) {
             << " states: p50 " << e.p50 << " ms, p95 " << e.p95 << " ms, max " << e.max << " ms\n"
             << "pairs " << r.stereo_pairs << ", IMU samples " << r.imu_samples << ", wall "
             << std::setprecision(3) << r.wall_s << " s (" << std::setprecision(1) << fps
-            << " pairs/s overall)" << (r.interrupted ? ", INTERRUPTED" : "") << "\n";
+            << " pairs/s overall)" << (r.interrupted ? ", INTERRUPTED" : "") << "\n"
+            << "matcher: " << r.matcher << "; mean disparity fill " << std::setprecision(1)
+            << 100.0 * r.mean_disparity_fill << " %\n";
   if (r.camera) {
     std::cout << "camera: " << r.camera_info.describe()
               << "\n  format: " << r.camera_format.describe()
@@ -140,7 +142,7 @@ void run_run(const RunArgs& a) {
   // Before the run, not after it.
   outputs.text_file("output", out_file).text_file("controller.output", controller_file);
   std::cerr << "kestrel run: config=" << a.config.string() << "\n  " << options.describe()
-            << "\n  matcher: " << options.matcher.describe()
+            << "\n  matcher: " << options.describe_matcher()
             << "\n  load average: " << load_average()
             << ", hardware threads: " << std::thread::hardware_concurrency() << "\n";
 

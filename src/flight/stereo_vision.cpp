@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "kestrel/core/stopwatch.hpp"
 
@@ -22,6 +23,8 @@ sim::RenderOptions render_options(const StereoVisionOptions& o) {
 sensor::StereoFrontEndOptions front_end_options(const StereoVisionOptions& o) {
   sensor::StereoFrontEndOptions f;
   f.matcher = o.matcher;
+  f.kind = o.matcher_kind;
+  f.sgm = o.sgm;
   f.compute_depth = true;
   return f;
 }
@@ -50,6 +53,12 @@ void StereoVisionOptions::validate() const {
   if (!(max_frame_gap_s > 0.0)) throw std::invalid_argument("vision: max_frame_gap_s must be positive");
   rig().validate();
   matcher.validate();
+  if (matcher_kind == sensor::StereoMatcherKind::kSgm) {
+    sensor::SgmOptions s = sgm;  // the range the front end gives it
+    s.min_disparity = matcher.min_disparity;
+    s.max_disparity = matcher.max_disparity;
+    s.validate();
+  }
   projector.validate();
 }
 
@@ -57,9 +66,13 @@ std::string StereoVisionOptions::describe() const {
   std::ostringstream os;
   os << width << "x" << height << " f=" << f_px << " px, baseline " << baseline_m
      << " m, projector " << sim::projector_mode_name(projector_mode) << ", noise "
-     << intensity_sigma << " grey levels, block " << matcher.block_size << ", disparities "
-     << matcher.min_disparity << ".." << matcher.max_disparity << ", covariance x"
-     << covariance_scale << ", measurements from the "
+     << intensity_sigma << " grey levels, "
+     << (matcher_kind == sensor::StereoMatcherKind::kSgm
+             ? "sgm (paths " + std::to_string(sgm.paths) + ")"
+             : std::string(matcher_kind ? to_string(*matcher_kind) : to_string(matcher.cost)) +
+                   " block " + std::to_string(matcher.block_size))
+     << ", disparities " << matcher.min_disparity << ".." << matcher.max_disparity
+     << ", covariance x" << covariance_scale << ", measurements from the "
      << fusion::odometry_reference_name(measurement_reference);
   return os.str();
 }

@@ -15,6 +15,11 @@ sensor::StereoFrontEndOptions front_end_options(const sensor::BlockMatcherOption
   return o;  // disparity only: the tracker works in disparity space
 }
 
+sensor::StereoFrontEndOptions disparity_only(sensor::StereoFrontEndOptions o) {
+  o.compute_depth = false;
+  return o;
+}
+
 }  // namespace
 
 StereoOdometry::StereoOdometry(const sensor::StereoCalibration& calibration,
@@ -28,6 +33,12 @@ StereoOdometry::StereoOdometry(const RectifiedStereo& rig,
                                const sensor::BlockMatcherOptions& matcher_options,
                                const DirectTrackerOptions& tracker_options)
     : front_end_(rig, front_end_options(matcher_options, {})), tracker_(rig, tracker_options) {}
+
+StereoOdometry::StereoOdometry(const sensor::StereoCalibration& calibration,
+                               const sensor::StereoFrontEndOptions& front_end,
+                               const DirectTrackerOptions& tracker_options)
+    : front_end_(calibration, disparity_only(front_end)),
+      tracker_(front_end_.rig(), tracker_options) {}
 
 StereoTrackResult StereoOdometry::track(TimeNs t_ns, const cv::Mat& left, const cv::Mat& right) {
   return track(t_ns, left, right, cv::Mat());

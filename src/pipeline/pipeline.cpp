@@ -74,6 +74,8 @@ struct Context {
 
   std::size_t imu_samples = 0;
   std::size_t stereo_pairs = 0;
+  std::size_t matched_pairs = 0;  // depth stage only
+  double fill_sum = 0.0;          // depth stage only: the pairs' disparity fill
   fusion::FusionCounters fusion_counters;
   std::vector<fusion::FusedState> states;
   std::vector<ControllerRecord> controller_records;
@@ -203,6 +205,8 @@ void depth_stage(Context& c, StageStats& st) {
     DisparityItem out{item->t_ns, item->arrived, {}};
     c.front_end.process(item->t_ns, item->left, item->right, out.frame);
     if (out.frame.match.valid == 0) ++st.failed;
+    ++c.matched_pairs;
+    c.fill_sum += out.frame.match.fill_rate();
     st.add_processing(start, Clock::now());
     const auto arrived = out.arrived;
     if (c.disparity_q.push(std::move(out))) st.add_output(arrived, Clock::now());
@@ -374,9 +378,7 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
     calibration = sensor::StereoCalibration::from_euroc(*sequence);
   }
 
-  sensor::StereoFrontEndOptions front_end_options;
-  front_end_options.matcher = options.matcher;
-  sensor::StereoFrontEnd front_end(*calibration, front_end_options);
+  sensor::StereoFrontEnd front_end(*calibration, options.front_end_options());
   const RectifiedStereo& rig = front_end.rig();
   odometry::DirectTracker tracker(rig, options.tracker);
   if (!camera_source) {
@@ -395,6 +397,7 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
 
   PipelineReport report;
   report.rig = rig;
+  report.matcher = front_end.matcher().describe();
   report.stages.resize(5);
   const char* names[] = {"source", "depth", "tracker", "fusion", "controller"};
   for (std::size_t i = 0; i < 5; ++i) report.stages[i].name = names[i];
@@ -427,6 +430,9 @@ PipelineReport run_pipeline(const PipelineOptions& options, const std::atomic<bo
   report.controller = std::move(c.controller_records);
   report.controller_disarmed = camera_source && !options.controller.allow_unfused;
   report.stereo_pairs = c.stereo_pairs;
+  if (c.matched_pairs > 0) {
+    report.mean_disparity_fill = c.fill_sum / static_cast<double>(c.matched_pairs);
+  }
   report.imu_samples = c.imu_samples;
   report.fusion_counters = c.fusion_counters;
   report.fusion_options = fusion_options;

@@ -46,9 +46,13 @@ bool resolve(const fs::path& config, fs::path& file) {
 // the controller and camera blocks.
 void load_named_files(const YAML::Node& root, const fs::path& path, PipelineOptions& o) {
   resolve(path, o.input);
-  if (resolve(path, o.matcher_options_file)) {
-    o.matcher = sensor::BlockMatcherOptions::load_yaml(o.matcher_options_file);
-  }
+  resolve(path, o.matcher_options_file);
+  resolve(path, o.sgm_options_file);
+  sensor::StereoFrontEndOptions front_end;
+  sensor::apply_matcher_selection({o.matcher_kind, o.matcher_options_file, o.sgm_options_file},
+                                  path.string(), front_end);
+  o.matcher = front_end.matcher;
+  o.sgm = front_end.sgm;
   if (resolve(path, o.tracker_options_file)) {
     if (root["tracker"]) {
       throw InputError(path, "tracker", "excludes tracker_options (give one or the other)");
@@ -137,6 +141,29 @@ std::string PipelineOptions::describe() const {
     << " vo_reference=" << fusion::odometry_reference_name(vo_reference)
     << " output=" << output.string() << "\n  controller: " << controller.describe();
   return s.str();
+}
+
+sensor::StereoFrontEndOptions PipelineOptions::front_end_options() const {
+  sensor::StereoFrontEndOptions f;
+  f.matcher = matcher;
+  f.kind = matcher_kind;
+  f.sgm = sgm;
+  return f;
+}
+
+std::string PipelineOptions::describe_matcher() const {
+  if (matcher_kind == sensor::StereoMatcherKind::kSgm) {
+    sensor::SgmOptions s = sgm;  // the front end's range: the block matcher's
+    s.min_disparity = matcher.min_disparity;
+    s.max_disparity = matcher.max_disparity;
+    return s.describe();
+  }
+  sensor::BlockMatcherOptions b = matcher;
+  if (matcher_kind) {
+    b.cost = *matcher_kind == sensor::StereoMatcherKind::kCensus ? sensor::MatchingCost::kCensus
+                                                                 : sensor::MatchingCost::kSad;
+  }
+  return b.describe();
 }
 
 std::string PipelineOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }

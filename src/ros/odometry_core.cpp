@@ -20,6 +20,8 @@
 #include "kestrel/odometry/stereo_odometry.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/rectification.hpp"
+#include "kestrel/sensor/stereo_front_end.hpp"
+#include "kestrel/sensor/stereo_matcher.hpp"
 
 namespace kestrel::ros {
 namespace fs = std::filesystem;
@@ -108,7 +110,7 @@ struct OdometryCore::Impl {
 
   OdometryCoreOptions options;
   odometry::DirectTrackerOptions tracker_options;
-  sensor::BlockMatcherOptions matcher_options;
+  sensor::StereoFrontEndOptions front_end_options;  // stereo: the matcher's choice and options
   std::optional<CameraModel> camera;
   std::unique_ptr<odometry::DirectTracker> tracker;  // RGB-D
   std::unique_ptr<odometry::StereoOdometry> stereo;  // stereo
@@ -155,13 +157,8 @@ void OdometryCore::Impl::build_stereo() {
   } else {
     calibration = sensor::load_stereo_calibration(options.stereo_calibration);
   }
-  try {
-    matcher_options.validate();
-  } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("block matcher options: ") + e.what());
-  }
   stereo =
-      std::make_unique<odometry::StereoOdometry>(*calibration, matcher_options, tracker_options);
+      std::make_unique<odometry::StereoOdometry>(*calibration, front_end_options, tracker_options);
   T_raw_track = SE3(SO3::from_matrix(stereo->R_rect_left().transpose()), Eigen::Vector3d::Zero());
   camera = from_pinhole(calibration->left);
   calibration_text = calibration->describe();
@@ -219,9 +216,18 @@ OdometryCore::OdometryCore(const OdometryCoreOptions& options,
                           : odometry::DirectTrackerOptions::load(options.tracker_options_file);
   m.tracker_options.validate();
   if (options.mode == OdometryMode::kStereo) {
-    m.matcher_options = options.matcher_options_file.empty()
-                            ? sensor::BlockMatcherOptions{}
-                            : sensor::BlockMatcherOptions::load_yaml(options.matcher_options_file);
+    sensor::MatcherSelection selection{std::nullopt, options.matcher_options_file,
+                                       options.sgm_options_file};
+    if (!options.matcher.empty()) {
+      selection.kind = sensor::StereoMatcherKind{};
+      try {
+        sensor::parse_option(options.matcher, *selection.kind);
+      } catch (const std::invalid_argument& e) {
+        throw InputError(std::string("parameter ~matcher: ") + e.what());
+      }
+    }
+    sensor::apply_matcher_selection(selection, "parameters", m.front_end_options,
+                                    {"~matcher", "~matcher_options", "~sgm_options"});
     m.build_stereo();
   } else {
     if (camera) set_camera(*camera);
@@ -257,7 +263,7 @@ void OdometryCore::reset() {
   Impl& m = *impl_;
   if (m.tracker) m.tracker->reset();
   if (m.stereo && m.calibration) {
-    m.stereo = std::make_unique<odometry::StereoOdometry>(*m.calibration, m.matcher_options,
+    m.stereo = std::make_unique<odometry::StereoOdometry>(*m.calibration, m.front_end_options,
                                                           m.tracker_options);
   }
   m.keyframe.reset();
@@ -435,8 +441,7 @@ std::string OdometryCore::describe() const {
   os << "mode: " << (m.options.mode == OdometryMode::kStereo ? "stereo" : "rgbd") << "\n";
   if (m.camera) os << "camera: " << ros::describe(*m.camera) << "\n";
   if (!m.calibration_text.empty()) os << "stereo calibration: " << m.calibration_text << "\n";
-  if (m.options.mode == OdometryMode::kStereo)
-    os << "matcher: " << m.matcher_options.describe() << "\n";
+  if (m.stereo) os << "matcher: " << m.stereo->front_end().matcher().describe() << "\n";
   os << "tracker options"
      << (m.options.tracker_options_file.empty() ? " (defaults)"
                                                 : " from " + m.options.tracker_options_file)

@@ -64,6 +64,8 @@ NodeParameters NodeParameters::load(const ::ros::NodeHandle& pnh) {
   read_param(pnh, "tracker_options", p.tracker_options, "a file name");
   read_param(pnh, "stereo_calibration", p.stereo_calibration, "a file or EuRoC folder");
   read_param(pnh, "matcher_options", p.matcher_options, "a file name");
+  read_param(pnh, "matcher", p.matcher, "sad, census or sgm");
+  read_param(pnh, "sgm_options", p.sgm_options, "a file name");
   read_param(pnh, "use_imu", p.use_imu, "true or false");
   read_param(pnh, "imu_noise", p.imu_noise, "a file name");
   read_param(pnh, "fusion_options", p.fusion_options, "a file name");
@@ -110,6 +112,8 @@ std::string NodeParameters::describe() const {
      << "\ntracker_options: " << (tracker_options.empty() ? "(defaults)" : tracker_options)
      << "\nstereo_calibration: " << stereo_calibration
      << "\nmatcher_options: " << (matcher_options.empty() ? "(defaults)" : matcher_options)
+     << "\nmatcher: " << (matcher.empty() ? "(matcher_options' cost)" : matcher)
+     << "\nsgm_options: " << (sgm_options.empty() ? "(defaults)" : sgm_options)
      << "\nuse_imu: " << (use_imu ? "true" : "false") << "\nimu_noise: " << imu_noise
      << "\nfusion_options: " << fusion_options
      << "\nT_body_cam: " << (T_body_cam.empty() ? "(default)" : "(16 numbers)")
@@ -137,6 +141,8 @@ OdometryNode::OdometryNode(::ros::NodeHandle nh, ::ros::NodeHandle private_nh)
   options.tracker_options_file = params_.tracker_options;
   options.stereo_calibration = params_.stereo_calibration;
   options.matcher_options_file = params_.matcher_options;
+  options.matcher = params_.matcher;
+  options.sgm_options_file = params_.sgm_options;
   options.use_imu = params_.use_imu;
   options.imu_noise_file = params_.imu_noise;
   options.fusion_options_file = params_.fusion_options;

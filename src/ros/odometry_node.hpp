@@ -33,6 +33,8 @@ struct NodeParameters {
   std::string tracker_options;
   std::string stereo_calibration;  ///< stereo: stereo_pair YAML or EuRoC folder
   std::string matcher_options;
+  std::string matcher;      // stereo: sad, census or sgm; empty: matcher_options' cost
+  std::string sgm_options;  // stereo, matcher sgm: SgmOptions YAML
   bool use_imu = false;
   std::string imu_noise;
   std::string fusion_options;

@@ -276,6 +276,23 @@ void BlockMatcher::prepare(int width, int height) {
                      0);
 }
 
+// The scalar reference of the census kernel: one pass per neighbour, in the signature's bit
+// order (each shifts the signatures left and brings in its bit).
+void kernels::census_signatures_reference(const std::uint8_t* const* rows, int cr, int count,
+                                          std::uint64_t* out) {
+  std::fill(out, out + std::max(count, 0), std::uint64_t{0});
+  const std::uint8_t* centres = rows[cr];
+  for (int dy = -cr; dy <= cr; ++dy) {
+    const std::uint8_t* row = rows[dy + cr];
+    for (int dx = -cr; dx <= cr; ++dx) {
+      if (dx == 0 && dy == 0) continue;
+      for (int i = 0; i < count; ++i) {
+        out[i] = (out[i] << 1) | static_cast<std::uint64_t>(row[i + dx] < centres[i]);
+      }
+    }
+  }
+}
+
 namespace {
 
 /// |I(y, x+1) - I(y, x-1)| for padded column c (x = c - r, clamped to the image).
@@ -286,22 +303,22 @@ inline std::uint32_t gradient_at(const std::uint8_t* row, int c, int r, int w) {
 }
 
 /// The census signatures of row y of `img` into the padded row `out` (stride columns, pad of
-/// them left of pixel 0, replicated borders), for a census window of radius cr.
-void census_row(const cv::Mat& img, int y, int cr, std::uint64_t* out, int stride, int pad) {
+/// them left of pixel 0, replicated borders), for a census window of radius cr: the columns
+/// whose window lies inside the row by census_signatures (SIMD) or its reference, the others
+/// one at a time with clamps.
+void census_row(const cv::Mat& img, int y, int cr, std::uint64_t* out, int stride, int pad,
+                bool simd) {
   const int w = img.cols, h = img.rows;
-  // Columns whose window lies inside the row: one pass per neighbour, in the signature's
-  // bit order, without clamps (a loop that vectorises); the others one at a time.
   const int lo = std::min(stride, pad + cr), hi = std::max(lo, std::min(stride, pad + w - cr));
-  std::fill(out + lo, out + hi, std::uint64_t{0});
-  const std::uint8_t* centres = img.ptr<std::uint8_t>(y) + (lo - pad);
+  std::array<const std::uint8_t*, 7> rows{};  // census_window <= 7 (validate)
   for (int dy = -cr; dy <= cr; ++dy) {
-    const std::uint8_t* row = img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1)) + (lo - pad);
-    for (int dx = -cr; dx <= cr; ++dx) {
-      if (dx == 0 && dy == 0) continue;
-      for (int i = 0; i < hi - lo; ++i) {
-        out[lo + i] = (out[lo + i] << 1) | static_cast<std::uint64_t>(row[i + dx] < centres[i]);
-      }
-    }
+    rows[static_cast<std::size_t>(dy + cr)] =
+        img.ptr<std::uint8_t>(clampi(y + dy, 0, h - 1)) + (lo - pad);
+  }
+  if (simd) {
+    kernels::census_signatures(rows.data(), cr, hi - lo, out + lo);
+  } else {
+    kernels::census_signatures_reference(rows.data(), cr, hi - lo, out + lo);
   }
   for (int c = 0; c < stride; ++c) {
     if (c == lo) c = hi;  // the interior is done
@@ -394,11 +411,11 @@ void BlockMatcher::preprocess(const cv::Mat& left, const cv::Mat& right) {
       census_row(
           l, y, cr,
           census_l_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_l_),
-          row_stride_l_, rad);
+          row_stride_l_, rad, simd());
       census_row(
           r, y, cr,
           census_r_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(row_stride_r_),
-          row_stride_r_, pad_left_);
+          row_stride_r_, pad_left_, simd());
     }
   }
   // Texture: |I(x+1) - I(x-1)| of the raw left image per padded column (x = c - r, clamped).

@@ -34,6 +34,9 @@ void AddSadRowFast(std::uint16_t* /*column_sums*/, const std::uint8_t* /*left_ro
                    const std::uint8_t* /*right_row*/, int /*cols*/, int /*lanes*/, int /*bits*/) {}
 void MatchRowFast(const RowScan& /*scan*/, const FastRow& /*fast*/, float* /*out*/,
                   MatchStats& /*stats*/) {}
+void CensusSignatures(const std::uint8_t* const* rows, int cr, int count, std::uint64_t* out) {
+  census_signatures_reference(rows, cr, count, out);
+}
 #else
 
 using D16 = hn::CappedTag<std::uint16_t, 16>;   // costs
@@ -894,6 +897,73 @@ void MatchRowFast(const RowScan& scan, const FastRow& fast, float* out, MatchSta
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Census signatures: a vector of uint16 pixels at a time (the bytes widened to int16, whose
+// compare every target has), each signature built as up to three 16-bit words by shifting in
+// one comparison per neighbour (as the reference shifts its 64-bit signature), then the words
+// widened and joined to the 64-bit signatures.
+
+// Word w (bits 16 w .. 16 w + 15) of the signatures of pixels i .. i + Lanes - 1: the
+// neighbours j whose bit nb - 1 - j falls in it, the first of them in its highest bit.
+HWY_INLINE V16 census_word(const std::uint8_t* const* neighbour, int nb, int w, int i,
+                           hn::Vec<DI16> centre) {
+  const D16 d16;
+  const DI16 di16;
+  const hn::Rebind<std::uint8_t, DI16> d8;
+  V16 word = hn::Zero(d16);
+  for (int j = std::max(0, nb - 16 * (w + 1)); j < nb - 16 * w; ++j) {
+    const auto value = hn::PromoteTo(di16, hn::LoadU(d8, neighbour[j] + i));
+    // VecFromMask is all ones (-1) where the neighbour is darker: subtracting it adds the bit.
+    word = hn::Sub(hn::ShiftLeft<1>(word),
+                   hn::BitCast(d16, hn::VecFromMask(di16, hn::Lt(value, centre))));
+  }
+  return word;
+}
+
+void CensusSignatures(const std::uint8_t* const* rows, int cr, int count, std::uint64_t* out) {
+  const D16 d16;
+  const DI16 di16;
+  const hn::Rebind<std::uint8_t, DI16> d8;
+  const hn::Half<D16> dh16;
+  const hn::Repartition<std::uint32_t, D16> d32;
+  const hn::Half<decltype(d32)> dh32;
+  const hn::Repartition<std::uint64_t, D16> d64;
+  const int side = 2 * cr + 1, nb = side * side - 1;
+  std::array<const std::uint8_t*, 48> neighbour{};  // census_window <= 7 (validate): 48 bits
+  for (int j = 0, k = 0; k < side * side; ++k) {
+    if (k == nb / 2) continue;  // the centre
+    neighbour[static_cast<std::size_t>(j++)] = rows[k / side] + (k % side - cr);
+  }
+  const int n = static_cast<int>(hn::Lanes(d16));
+  const int n32 = static_cast<int>(hn::Lanes(d32)), n64 = static_cast<int>(hn::Lanes(d64));
+  int i = 0;
+  for (; i + n <= count; i += n) {
+    const auto centre = hn::PromoteTo(di16, hn::LoadU(d8, rows[cr] + i));
+    const V16 w0 = census_word(neighbour.data(), nb, 0, i, centre);
+    const V16 w1 = nb > 16 ? census_word(neighbour.data(), nb, 1, i, centre) : hn::Zero(d16);
+    const V16 w2 = nb > 32 ? census_word(neighbour.data(), nb, 2, i, centre) : hn::Zero(d16);
+    for (int h = 0; h < 2; ++h) {  // the two halves of the pixels: bits 0..31 and 32..47
+      const auto half = [&](V16 v) {
+        return h == 0 ? hn::LowerHalf(dh16, v) : hn::UpperHalf(dh16, v);
+      };
+      const auto low =
+          hn::Or(hn::PromoteTo(d32, half(w0)), hn::ShiftLeft<16>(hn::PromoteTo(d32, half(w1))));
+      const auto high = hn::PromoteTo(d32, half(w2));
+      std::uint64_t* o = out + i + h * n32;
+      hn::StoreU(hn::Or(hn::PromoteTo(d64, hn::LowerHalf(dh32, low)),
+                        hn::ShiftLeft<32>(hn::PromoteTo(d64, hn::LowerHalf(dh32, high)))),
+                 d64, o);
+      hn::StoreU(hn::Or(hn::PromoteTo(d64, hn::UpperHalf(dh32, low)),
+                        hn::ShiftLeft<32>(hn::PromoteTo(d64, hn::UpperHalf(dh32, high)))),
+                 d64, o + n64);
+    }
+  }
+  if (i == count) return;
+  std::array<const std::uint8_t*, 7> tail{};  // the last count % n pixels: the reference
+  for (int k = 0; k < side; ++k) tail[static_cast<std::size_t>(k)] = rows[k] + i;
+  census_signatures_reference(tail.data(), cr, count - i, out + i);
+}
+
 #endif  // HWY_TARGET == HWY_SCALAR
 
 // Plain loops, compiled here once per target so that the popcount and the vectorised updates
@@ -937,6 +1007,7 @@ HWY_EXPORT(ScanRow);
 HWY_EXPORT(AddSadRowFast);
 HWY_EXPORT(MatchRowFast);
 HWY_EXPORT(CensusSlideRow);
+HWY_EXPORT(CensusSignatures);
 HWY_EXPORT(TargetName);
 
 int vector_lanes() { return HWY_DYNAMIC_DISPATCH(VectorLanes)(); }
@@ -957,6 +1028,10 @@ void census_slide_row(std::uint16_t* column_sums, std::uint8_t* ring_row,
                       int lanes, int scale, int storage_order) {
   HWY_DYNAMIC_DISPATCH(CensusSlideRow)
   (column_sums, ring_row, left_row, right_row, cols, lanes, scale, storage_order);
+}
+
+void census_signatures(const std::uint8_t* const* rows, int cr, int count, std::uint64_t* out) {
+  HWY_DYNAMIC_DISPATCH(CensusSignatures)(rows, cr, count, out);
 }
 
 const char* target_name() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }

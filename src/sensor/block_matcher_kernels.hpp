@@ -120,6 +120,16 @@ void match_row_fast(const RowScan& scan, const FastRow& fast, float* out, MatchS
 void census_slide_row(std::uint16_t* column_sums, std::uint8_t* ring_row,
                       const std::uint64_t* left_row, const std::uint64_t* right_row, int cols,
                       int lanes, int scale, int storage_order);
+/// Census signatures (the census cost's, BlockMatcherOptions::census_window = 2 cr + 1) of
+/// `count` consecutive pixels whose windows lie inside the image: rows[k] (k = 0 .. 2 cr)
+/// points at the first pixel's column in image row y - cr + k (clamped). Bit = I(neighbour) <
+/// I(centre); the neighbours in raster order (dy, then dx; the centre skipped), the first in
+/// the highest bit of the (2 cr + 1)^2 - 1. The SIMD kernel gives census_signatures_reference's
+/// bits on every target.
+void census_signatures(const std::uint8_t* const* rows, int cr, int count, std::uint64_t* out);
+/// The scalar reference of census_signatures (block_matcher.cpp).
+void census_signatures_reference(const std::uint8_t* const* rows, int cr, int count,
+                                 std::uint64_t* out);
 /// The name of the target the dispatch takes.
 const char* target_name();
 

@@ -214,7 +214,11 @@ HWY_INLINE void row_penalties(const AggregateRowArgs& a, std::uint16_t* p2) {
 }
 
 template <int NV>
-void aggregate(const AggregateRowArgs& a) {
+void aggregate(const AggregateRowArgs& args) {
+  // A local copy: Highway's vector stores may alias anything, so through the reference GCC
+  // reloaded the row's pointers and sizes after every store; a local whose address stays
+  // here cannot be written by them.
+  const AggregateRowArgs a = args;
   const int stride = a.lanes + kSgmGuard;
   const int x0 = a.step > 0 ? 0 : a.width - 1;
   row_penalties<NV>(a, a.p2_scratch);

@@ -2,11 +2,14 @@
 #include "kestrel/sensor/stereo_front_end.hpp"
 
 #include <chrono>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/stopwatch.hpp"
+#include "kestrel/io/yaml_file.hpp"
 
 namespace kestrel::sensor {
 
@@ -27,7 +30,59 @@ StereoMatcher make_matcher(const StereoFrontEndOptions& options, const Rectified
   }
 }
 
+// The value a matcher file gives `key`, if it names it (the defaults are no contradiction).
+std::optional<std::string> named_value(const std::filesystem::path& file, const char* key,
+                                       const char* what) {
+  const YAML::Node node = io::load_yaml_map(file, what)[key];
+  if (!node || !node.IsScalar()) return std::nullopt;
+  return node.as<std::string>();
+}
+
 }  // namespace
+
+void apply_matcher_selection(const MatcherSelection& selection, const std::string& source,
+                             StereoFrontEndOptions& options, const MatcherSelection::Keys& keys) {
+  options.matcher = selection.block_file.empty()
+                        ? BlockMatcherOptions{}
+                        : BlockMatcherOptions::load_yaml(selection.block_file);
+  options.kind = selection.kind;
+  const BlockMatcherOptions& block = options.matcher;
+  if (selection.kind && *selection.kind != StereoMatcherKind::kSgm &&
+      !selection.block_file.empty()) {
+    const std::string wanted(to_string(*selection.kind));
+    const auto cost = named_value(selection.block_file, "cost", "block matcher");
+    if (cost && *cost != wanted) {
+      throw InputError(source, keys.kind,
+                       wanted + " contradicts the cost '" + *cost + "' of " + keys.block_file +
+                           " " + selection.block_file.string() + " (give one of them)");
+    }
+  }
+  options.sgm = SgmOptions{};
+  if (selection.sgm_file.empty()) return;
+  if (selection.kind != StereoMatcherKind::kSgm) {
+    const std::string kind(selection.kind ? to_string(*selection.kind)
+                                          : "unset (the block matcher)");
+    throw InputError(source, keys.sgm_file,
+                     "is for " + keys.kind + ": sgm (here " + keys.kind + " is " + kind + ")");
+  }
+  options.sgm = SgmOptions::load_yaml(selection.sgm_file);
+  // The range is the block matcher's (StereoFrontEndOptions): a file that sets another one
+  // would be silently overridden.
+  for (const auto& [key, used] : {std::pair{"min_disparity", block.min_disparity},
+                                  std::pair{"max_disparity", block.max_disparity}}) {
+    const int given =
+        key == std::string("min_disparity") ? options.sgm.min_disparity : options.sgm.max_disparity;
+    if (named_value(selection.sgm_file, key, "semi-global matcher") && given != used) {
+      throw InputError(selection.sgm_file, key,
+                       std::to_string(given) + " differs from the range in use (" +
+                           std::to_string(used) + ", the block matcher's " + key + " of " +
+                           (selection.block_file.empty()
+                                ? std::string("its defaults")
+                                : keys.block_file + " " + selection.block_file.string()) +
+                           "): every matcher searches that range; set it there");
+    }
+  }
+}
 
 StereoFrontEnd::StereoFrontEnd(const StereoCalibration& calibration,
                                const StereoFrontEndOptions& options)

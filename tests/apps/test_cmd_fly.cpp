@@ -2,6 +2,8 @@
 // arguments fail clearly; a folder of other files is not overwritten.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "run_cli.hpp"
 #include "test_data.hpp"
 
@@ -62,6 +64,25 @@ TEST_F(CmdFly, RefusesAFolderOfOtherFiles) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("refusing"), std::string::npos) << r.err;
   EXPECT_EQ(kestrel::test::slurp(dir_ / "mine" / "notes.txt"), "precious\n");
+}
+
+// --stereo-matcher picks the vision's matcher (the start-up line names it); a bad name, or SGM
+// options without sgm, is an error naming the flag.
+TEST_F(CmdFly, StereoMatcherSelectsTheMatcher) {
+  const RunResult r =
+      run("fly --scenario hover --duration 0.5 --stereo-matcher sgm --out " + out("flight"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("grey levels, sgm (paths 8)"), std::string::npos) << r.err;
+  const RunResult bad = run("fly --stereo-matcher sgbm --out " + out("bad"));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("--stereo-matcher: must be sad, census or sgm"), std::string::npos)
+      << bad.err;
+  { std::ofstream(dir_ / "sgm.yaml") << "paths: 4\n"; }
+  const RunResult stray = run("fly --sgm-options " + out("sgm.yaml") + " --out " + out("bad"));
+  EXPECT_EQ(stray.exit_code, 1);
+  EXPECT_NE(stray.err.find("'--sgm-options': is for --stereo-matcher: sgm"), std::string::npos)
+      << stray.err;
+  EXPECT_FALSE(fs::exists(dir_ / "bad"));
 }
 
 TEST_F(CmdFly, ListNamesEveryScenario) {

@@ -255,6 +255,25 @@ TEST_F(CmdOdometryBadFrames, NoFrameTrackedIsAnErrorAndTheLogHoldsNoInventedRati
 }
 
 // An --out that cannot be written is found before the first frame, not after the last.
+// --matcher and --sgm-options belong to --stereo; a bad matcher name is an error naming the
+// flag, before any pair is matched.
+TEST_F(CmdOdometry, MatcherFlagsNeedStereoAndAKnownName) {
+  const RunResult rgbd = odometry("--matcher sgm --out " + path("a.txt"));
+  EXPECT_NE(rgbd.exit_code, 0);
+  EXPECT_NE(rgbd.err.find("--matcher and --sgm-options need --stereo"), std::string::npos)
+      << rgbd.err;
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1");
+  const RunResult bad = kestrel::test::run_kestrel(
+      dir_, "odometry --stereo " +
+                quoted((kestrel::test::shared_data_dir() / "euroc/V1_01_easy_part1").string()) +
+                " --matcher sgbm --out " + path("b.txt"));
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("--matcher: must be sad, census or sgm, got 'sgbm'"), std::string::npos)
+      << bad.err;
+  EXPECT_EQ(bad.err.find("SUMMARY"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir_ / "b.txt"));
+}
+
 TEST_F(CmdOdometry, UnwritableOutIsFoundBeforeAnyWork) {
   ASSERT_TRUE(fs::is_directory("/proc/self")) << "needs procfs (which takes no new files)";
   const RunResult r =

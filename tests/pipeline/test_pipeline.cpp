@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "config_files.hpp"
@@ -76,6 +77,72 @@ TEST(PipelineOptions, RelativePathsAreTakenFromTheConfigFolder) {
   EXPECT_EQ(p.vo_reference, fusion::OdometryReference::kPreviousFrame);
 }
 
+TEST(PipelineOptions, MatcherKeySelectsTheStereoMatcher) {
+  const fs::path dir = test::fresh_temp_dir("pipeline");
+  // Unset: the block matcher with matcher_options' cost (what configs written before mean).
+  const PipelineOptions unset =
+      PipelineOptions::load_yaml(test::write_text(dir / "a.yaml", "input: x\n"));
+  EXPECT_FALSE(unset.matcher_kind.has_value());
+  EXPECT_NE(unset.describe_matcher().find("cost=sad"), std::string::npos)
+      << unset.describe_matcher();
+  test::write_text(dir / "block.yaml", "max_disparity: 48\nblock_size: 7\n");
+  test::write_text(dir / "sgm.yaml", "paths: 4\np1: 9\n");
+  const PipelineOptions sgm = PipelineOptions::load_yaml(test::write_text(
+      dir / "b.yaml",
+      "input: x\nmatcher: sgm\nmatcher_options: block.yaml\nsgm_options: sgm.yaml\n"));
+  ASSERT_TRUE(sgm.matcher_kind.has_value());
+  EXPECT_EQ(*sgm.matcher_kind, sensor::StereoMatcherKind::kSgm);
+  EXPECT_EQ(sgm.sgm_options_file, dir / "sgm.yaml");  // from the config's folder
+  EXPECT_EQ(sgm.sgm.paths, 4);
+  EXPECT_EQ(sgm.sgm.p1, 9);
+  EXPECT_EQ(sgm.matcher.max_disparity, 48);  // every matcher's range
+  const sensor::StereoFrontEndOptions f = sgm.front_end_options();
+  EXPECT_EQ(f.kind, sensor::StereoMatcherKind::kSgm);
+  EXPECT_EQ(f.sgm.paths, 4);
+  EXPECT_EQ(sgm.describe_matcher().rfind("sgm disparity=[0,48) ", 0), 0u) << sgm.describe_matcher();
+  EXPECT_NE(sgm.to_yaml().find("\nmatcher: sgm\n"), std::string::npos) << sgm.to_yaml();
+  const PipelineOptions census =
+      PipelineOptions::load_yaml(test::write_text(dir / "c.yaml", "input: x\nmatcher: census\n"));
+  EXPECT_EQ(census.front_end_options().kind, sensor::StereoMatcherKind::kCensus);
+  EXPECT_NE(census.describe_matcher().find("cost=census"), std::string::npos);
+}
+
+TEST(PipelineOptions, BadMatcherChoicesNameTheFileAndKey) {
+  const fs::path dir = test::fresh_temp_dir("pipeline");
+  const fs::path unknown = test::write_text(dir / "a.yaml", "input: x\nmatcher: sgbm\n");
+  const std::string e = test::config_error_of(unknown);
+  EXPECT_EQ(e.rfind(unknown.string() + ": field 'matcher': ", 0), 0u) << e;
+  EXPECT_NE(e.find("sad, census or sgm"), std::string::npos) << e;
+  test::write_text(dir / "sgm.yaml", "paths: 4\n");
+  const fs::path stray = test::write_text(dir / "b.yaml", "input: x\nsgm_options: sgm.yaml\n");
+  EXPECT_EQ(test::config_error_of(stray).rfind(
+                stray.string() + ": field 'sgm_options': is for matcher: sgm", 0),
+            0u)
+      << test::config_error_of(stray);
+  test::write_text(dir / "census.yaml", "cost: census\n");
+  const fs::path contradiction =
+      test::write_text(dir / "c.yaml", "input: x\nmatcher: sad\nmatcher_options: census.yaml\n");
+  EXPECT_EQ(test::config_error_of(contradiction)
+                .rfind(contradiction.string() + ": field 'matcher': sad contradicts", 0),
+            0u)
+      << test::config_error_of(contradiction);
+  // The range is the block matcher's: an SGM file with another one is an error naming it.
+  const fs::path range_file = test::write_text(dir / "range.yaml", "max_disparity: 128\n");
+  const std::string range = test::config_error_of(
+      test::write_text(dir / "d.yaml", "input: x\nmatcher: sgm\nsgm_options: range.yaml\n"));
+  EXPECT_EQ(range.rfind(range_file.string() + ": field 'max_disparity': 128 differs", 0), 0u)
+      << range;
+  // ... the same range is fine, and so is a bad value inside the file, named there.
+  test::write_text(dir / "same.yaml", "max_disparity: 64\n");
+  EXPECT_NO_THROW(PipelineOptions::load_yaml(
+      test::write_text(dir / "e.yaml", "input: x\nmatcher: sgm\nsgm_options: same.yaml\n")));
+  const fs::path bad_file = test::write_text(dir / "bad.yaml", "paths: 6\n");
+  const std::string bad = test::config_error_of(
+      test::write_text(dir / "f.yaml", "input: x\nmatcher: sgm\nsgm_options: bad.yaml\n"));
+  EXPECT_NE(bad.find(bad_file.string()), std::string::npos) << bad;
+  EXPECT_NE(bad.find("paths must be 4 or 8"), std::string::npos) << bad;
+}
+
 TEST(Pipeline, MissingFolderIsAnInputErrorNamingIt) {
   PipelineOptions o;
   o.input = "/nonexistent/kestrel_euroc_folder";
@@ -127,6 +194,26 @@ TEST(Pipeline, FastPaceProcessesEveryPairThroughEveryStage) {
   for (const auto& s : r.states) {
     EXPECT_LT((s.state.p_world - r.states.front().state.p_world).norm(), 0.05);
   }
+}
+
+// `matcher: sgm` runs the semi-global matcher: the report names it, and its fill on V1_01
+// (every pixel gets a disparity, docs/stereo.md) is far above the block matcher's (~72 %).
+TEST(Pipeline, MatcherSgmRunsTheSemiGlobalMatcher) {
+  KESTREL_REQUIRE_DATA(kV101);
+  const fs::path dir = test::fresh_temp_dir("pipeline");
+  PipelineOptions o = short_run(dir, Pace::kFast);
+  o.max_frames = 5;
+  const PipelineReport sad = run_pipeline(o);
+  o.matcher_kind = sensor::StereoMatcherKind::kSgm;
+  const PipelineReport sgm = run_pipeline(o);
+  EXPECT_NE(sad.matcher.find("cost=sad"), std::string::npos) << sad.matcher;
+  EXPECT_EQ(sgm.matcher.rfind("sgm ", 0), 0u) << sgm.matcher;
+  EXPECT_EQ(stage(sgm, "depth").out, 5u);
+  EXPECT_EQ(stage(sgm, "tracker").failed, 0u);
+  EXPECT_GT(sgm.mean_disparity_fill, 0.9);
+  EXPECT_LT(sad.mean_disparity_fill, 0.85);
+  std::cout << "V1_01, 5 pairs: mean fill sad " << 100.0 * sad.mean_disparity_fill << " %, sgm "
+            << 100.0 * sgm.mean_disparity_fill << " %\n";
 }
 
 TEST(Pipeline, RecordedPaceWithDropsKeepsItsCountsConsistent) {

@@ -192,6 +192,51 @@ TEST(OdometryCore, OptionErrorsNameTheProblem) {
   }
 }
 
+// The matcher parameters: an unknown name, or sgm_options without matcher sgm, is an error
+// naming the parameter; matcher "sgm" gives the library's SGM odometry, pose for pose.
+TEST(OdometryCore, MatcherParameterSelectsTheSemiGlobalMatcher) {
+  KESTREL_REQUIRE_DATA(kEuroc);
+  const std::string folder = (test::shared_data_dir() / kEuroc).string();
+  OdometryCoreOptions options;
+  options.mode = OdometryMode::kStereo;
+  options.stereo_calibration = folder;
+  options.matcher = "sgbm";
+  try {
+    OdometryCore core(options);
+    FAIL() << "an unknown matcher was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("~matcher"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sad, census or sgm"), std::string::npos) << e.what();
+  }
+  options.matcher = "";
+  options.sgm_options_file = "/nonexistent/sgm.yaml";
+  try {
+    OdometryCore core(options);
+    FAIL() << "sgm_options without matcher sgm was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("~sgm_options"), std::string::npos) << e.what();
+  }
+  options.sgm_options_file.clear();
+  options.matcher = "sgm";
+  OdometryCore core(options);
+  EXPECT_NE(core.describe().find("matcher: sgm "), std::string::npos) << core.describe();
+  const io::EurocSequence sequence(folder);
+  sensor::StereoFrontEndOptions front_end;
+  front_end.kind = sensor::StereoMatcherKind::kSgm;
+  odometry::StereoOdometry library(sensor::StereoCalibration::from_euroc(sequence), front_end,
+                                   odometry::DirectTrackerOptions{});
+  const SE3 C(SO3::from_matrix(library.R_rect_left().transpose()), Eigen::Vector3d::Zero());
+  const EurocFolder euroc(folder);
+  for (std::size_t i = 0; i < 4; ++i) {
+    const StereoFrame f = euroc.load(i);
+    const OdometryOutput out = core.track_stereo(f.t_ns, f.left, f.right);
+    const odometry::StereoTrackResult r = library.track(f.t_ns, f.left, f.right);
+    ASSERT_TRUE(out.ok && r.track.ok()) << out.failure;
+    const Eigen::Matrix4d expected = (C * r.track.T_world_cam * C.inverse()).matrix();
+    EXPECT_LT((out.T_odom_child - expected).cwiseAbs().maxCoeff(), 1e-12) << "pair " << i;
+  }
+}
+
 // Stereo on EuRoC with its IMU: poses are the library's StereoOdometry poses (of the rectified
 // left camera) expressed for the raw left camera, and the EKF produces fused states once its
 // static initialisation has found a still second of IMU (as `kestrel run` on this folder).

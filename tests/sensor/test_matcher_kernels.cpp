@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -15,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "block_matcher_kernels.hpp"  // the census kernel and its reference (src/sensor)
 #include "kestrel/sensor/block_matcher.hpp"
 #include "kestrel/sensor/pattern.hpp"
 #include "kestrel/sensor/rectification.hpp"
@@ -248,6 +251,39 @@ TEST(BlockMatcher, SimdScansGiveTheScalarReferenceOnRowsWiderThanTheFastRows) {
       {0, 64, 5, kCensus, kSobel, 1, 10, 0.25, true},
   };
   expect_every_target_gives_the_reference(pairs, cases);
+}
+
+// The census cost's signatures (census_window 3, 5, 7: 8, 24 and 48 bits) of rows of every
+// length around the vector widths, on random bytes with ties and the extremes 0 and 255: the
+// SIMD kernel gives the reference's bits on every target.
+TEST(BlockMatcher, CensusSignaturesGiveTheScalarReferenceOnEveryTarget) {
+  constexpr int kWidth = 300, kHeight = 7;
+  std::mt19937 rng(5);
+  std::vector<std::uint8_t> image(static_cast<std::size_t>(kWidth * kHeight));
+  for (auto& v : image) {
+    const auto r = rng() % 8;  // a quarter 0 or 255, many ties among the rest
+    v = static_cast<std::uint8_t>(r == 0 ? 0 : r == 1 ? 255 : 120 + static_cast<int>(rng() % 6));
+  }
+  on_every_simd_target([&] {
+    for (const int cr : {1, 2, 3}) {
+      std::array<const std::uint8_t*, 7> rows{};
+      for (int k = 0; k <= 2 * cr; ++k) {
+        rows[static_cast<std::size_t>(k)] =
+            image.data() + static_cast<std::size_t>(k * kWidth) + cr;
+      }
+      for (const int count :
+           {0, 1, 7, 8, 9, 15, 16, 17, 31, 32, 33, 63, 64, 65, 100, kWidth - 2 * cr}) {
+        std::vector<std::uint64_t> simd(static_cast<std::size_t>(count) + 1, 0xABCD);
+        std::vector<std::uint64_t> reference(simd.size(), 0xABCD);
+        kernels::census_signatures(rows.data(), cr, count, simd.data());
+        kernels::census_signatures_reference(rows.data(), cr, count, reference.data());
+        EXPECT_EQ(simd, reference) << "census window " << 2 * cr + 1 << ", " << count << " pixels";
+        if (count > 0) {  // not all zero: the signatures carry bits (the test can see a loss)
+          EXPECT_NE(*std::max_element(reference.begin(), reference.end() - 1), 0U);
+        }
+      }
+    }
+  });
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -47,7 +47,10 @@ struct StereoVisionOptions {
   sensor::PatternOptions pattern;
   /// Camera noise (grey levels) of both views.
   double intensity_sigma = 2.0;
-  sensor::BlockMatcherOptions matcher;
+  sensor::BlockMatcherOptions matcher;  ///< its min/max_disparity are every matcher's range
+  /// The stereo matcher (sad, census, sgm); unset: the block matcher with matcher.cost.
+  std::optional<sensor::StereoMatcherKind> matcher_kind;
+  sensor::SgmOptions sgm;  ///< matcher_kind sgm (the range is matcher's)
   odometry::DirectTrackerOptions tracker;
   /// The tracker's covariance is sigma^2 (J^T W J)^-1, which treats every pixel's residual
   /// as independent; neighbouring residuals are not, so the fusion gets it times this factor.

@@ -29,6 +29,11 @@ class StereoOdometry {
   /// An already rectified rig (rendered pairs): no remapping.
   StereoOdometry(const RectifiedStereo& rig, const sensor::BlockMatcherOptions& matcher_options,
                  const DirectTrackerOptions& tracker_options);
+  /// A raw pair with any matcher (front_end.kind: sad, census, sgm) and rectification options;
+  /// front_end.compute_depth is ignored (the tracker works in disparity space).
+  StereoOdometry(const sensor::StereoCalibration& calibration,
+                 const sensor::StereoFrontEndOptions& front_end,
+                 const DirectTrackerOptions& tracker_options);
 
   /// Rectifies (if raw), matches and tracks the left view of one pair. Bad images (empty,
   /// wrong size or type) give a kInvalidInput result naming the problem; nothing is thrown for

@@ -15,6 +15,9 @@
 #include "kestrel/pipeline/camera_source_options.hpp"
 #include "kestrel/pipeline/controller_options.hpp"
 #include "kestrel/sensor/block_matcher.hpp"
+#include "kestrel/sensor/sgm_matcher.hpp"
+#include "kestrel/sensor/stereo_front_end.hpp"
+#include "kestrel/sensor/stereo_matcher.hpp"
 
 namespace kestrel::pipeline {
 
@@ -56,12 +59,18 @@ struct PipelineOptions {
   /// fusion/odometry_measurement.hpp, as `kestrel fly --vo-reference`).
   fusion::OdometryReference vo_reference = fusion::OdometryReference::kKeyframe;
   std::filesystem::path output = "trajectory.txt";  ///< fused trajectory (TUM), under --out
-  /// Option files (`matcher_options`, `tracker_options`, `fusion_options`); empty: none.
+  /// The stereo matcher (`matcher: sad|census|sgm`); unset: the block matcher with the cost of
+  /// matcher_options (sad by default), what configs written before the key existed mean.
+  std::optional<sensor::StereoMatcherKind> matcher_kind;
+  /// Option files (`matcher_options`, `sgm_options`, `tracker_options`, `fusion_options`);
+  /// empty: none. matcher_options' min/max_disparity are the range of every matcher.
   std::filesystem::path matcher_options_file;
+  std::filesystem::path sgm_options_file;  ///< needs `matcher: sgm`
   std::filesystem::path tracker_options_file;
   std::filesystem::path fusion_options_file;
 
   sensor::BlockMatcherOptions matcher;
+  sensor::SgmOptions sgm;                  ///< sgm_options (its range is matcher's)
   odometry::DirectTrackerOptions tracker;  ///< tracker_options, or the inline `tracker:` map
   fusion::FusionOptions fusion;  ///< IMU noise and T_body_cam are taken from the folder
   ControllerStageOptions controller;  ///< the controller stage (`controller:` block)
@@ -85,7 +94,9 @@ struct PipelineOptions {
     v("vo_covariance_scale", vo_covariance_scale);
     v("vo_reference", vo_reference);
     v("output", output);
+    v("matcher", matcher_kind);
     v("matcher_options", matcher_options_file);
+    v("sgm_options", sgm_options_file);
     v("tracker_options", tracker_options_file);
     v("fusion_options", fusion_options_file);
     v("tracker", tracker);
@@ -104,6 +115,10 @@ struct PipelineOptions {
   void validate() const;
   [[nodiscard]] std::string describe() const;
   [[nodiscard]] std::string to_yaml() const;
+  /// The stereo front end's matcher options: matcher_kind, matcher and sgm.
+  [[nodiscard]] sensor::StereoFrontEndOptions front_end_options() const;
+  /// The matcher that runs, one line (the chosen matcher's options).
+  [[nodiscard]] std::string describe_matcher() const;
 };
 
 }  // namespace kestrel::pipeline

@@ -43,6 +43,10 @@ struct OdometryCoreOptions {
   /// Stereo: a Kestrel `stereo_pair` YAML or an EuRoC folder (its mav0/cam0, cam1 sensor.yaml).
   std::string stereo_calibration;
   std::string matcher_options_file;  ///< stereo: BlockMatcherOptions YAML; empty: defaults
+  /// Stereo: the matcher, "sad", "census" or "sgm"; empty: the block matcher with the cost of
+  /// matcher_options (sad by default). The range is matcher_options' for every matcher.
+  std::string matcher;
+  std::string sgm_options_file;  ///< stereo, matcher "sgm": SgmOptions YAML; empty: defaults
 
   // --- IMU fusion (error-state EKF with stochastic cloning, docs/fusion.md) ---
   bool use_imu = false;

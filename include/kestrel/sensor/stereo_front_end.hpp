@@ -4,8 +4,10 @@
 // stereo odometry, the on-board pipeline, the closed-loop flight and the ROS node all use it.
 #pragma once
 
+#include <filesystem>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <string>
 
 #include "kestrel/core/time.hpp"
 #include "kestrel/geometry/pinhole_camera.hpp"
@@ -30,6 +32,33 @@ struct StereoFrontEndOptions {
   /// does not).
   bool compute_depth = false;
 };
+
+/// A configuration's choice of matcher, as the pipeline config, the ROS node's parameters and
+/// `kestrel fly` give it: `matcher: sad|census|sgm`, `matcher_options: FILE` (the block
+/// matcher's YAML; its min/max_disparity are every matcher's range) and `sgm_options: FILE`
+/// (the semi-global matcher's YAML).
+struct MatcherSelection {
+  std::optional<StereoMatcherKind> kind;  ///< unset: the block matcher with the file's cost
+  std::filesystem::path block_file;       ///< empty: BlockMatcherOptions' defaults
+  std::filesystem::path sgm_file;         ///< empty: SgmOptions' defaults
+
+  /// The names of the three keys in messages (`--stereo-matcher` for a flag, say).
+  struct Keys {
+    std::string kind = "matcher";
+    std::string block_file = "matcher_options";
+    std::string sgm_file = "sgm_options";
+  };
+};
+
+/// Loads the selection's files into `options` (matcher, kind, sgm). Contradictions are
+/// InputErrors "SOURCE: field 'KEY': ..." naming the configuration (`source`) and the key:
+/// an SGM file without `matcher: sgm`, a `matcher` other than the block file's `cost`
+/// (sad / census), an SGM file whose min/max_disparity differ from the range in use (the range
+/// is the block matcher's, so that switching `matcher` keeps it). Errors inside a file name
+/// that file and its field.
+void apply_matcher_selection(const MatcherSelection& selection, const std::string& source,
+                             StereoFrontEndOptions& options,
+                             const MatcherSelection::Keys& keys = {});
 
 /// One processed pair. The caller owns it: reusing one frame across pairs reuses its buffers
 /// (no allocation per pair); a fresh one per pair lets frames travel through queues.
