@@ -69,6 +69,27 @@ TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
   EXPECT_LT((last.p_true - last.p_ref).norm(), 0.10);
 }
 
+// The realistic world (wind, a heavier and weaker vehicle than the controller assumes, the
+// in-flight IMU noise, an unknown camera-IMU offset, dropped, blurred, rolling-shutter frames
+// with jittered latency) on a short hover: it flies, loosely; docs/flight.md has the figures.
+TEST(ClosedLoopFlight, HoversInTheRealisticWorld) {
+  FlightOptions o = small_options();
+  o.world = sim::WorldOptions::realistic();
+  FlightSimulation simulation(scenario("hover"), o);
+  EXPECT_TRUE(simulation.options().fusion.estimate_time_offset);
+  EXPECT_EQ(simulation.options().fusion.time_offset_s, 0.0);  // its prior, not the truth
+  EXPECT_GE(simulation.options().fusion.reorder_window_s, 0.040 + 0.010 + 0.010);
+  const FlightResult r = simulation.run(6.0);
+  EXPECT_FALSE(r.crashed);
+  const std::size_t taken = r.counters.frames + r.counters.frames_dropped;
+  EXPECT_EQ(taken, 6u * 30u + 1u);
+  EXPECT_GT(r.counters.frames_dropped, 0u);
+  EXPECT_LT(r.counters.frames_dropped, taken / 5);
+  EXPECT_GT(r.counters.fusion.updates_accepted, r.counters.frames * 7 / 10);
+  EXPECT_LT(r.rms_tracking_m(), 0.15);
+  EXPECT_LT(r.rms_estimate_m(), 0.10);
+}
+
 TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   FlightSimulation simulation(scenario("hover"), small_options());
   const FlightResult r = simulation.run(0.5);
