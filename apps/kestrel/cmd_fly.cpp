@@ -29,6 +29,7 @@ struct FlyArgs {
   bool list = false;
   std::string world = "ideal";
   bool print_world = false;
+  bool mission_runs_in_hold = false;
   double vo_off_at_s = -1.0;
   double vo_off_for_s = 2.0;
   double latency_s = -1.0;
@@ -54,6 +55,7 @@ void run_fly(const FlyArgs& a) {
   flight::FlightOptions options;
   options.seed = a.seed;
   options.world = world;
+  options.pause_mission_in_hold = !a.mission_runs_in_hold;
   if (!a.vehicle_yaml.empty()) options.vehicle = sim::QuadrotorParameters::load(a.vehicle_yaml);
   if (!a.controller_yaml.empty()) {
     options.controller = control::PositionControllerOptions::load(a.controller_yaml);
@@ -165,6 +167,9 @@ void add_fly_command(CLI::App& app) {
                   "The simulated world: ideal (default), realistic, or a YAML file "
                   "(docs/flight.md, \"World\"; --print-world writes one)")
       ->capture_default_str();
+  cmd->add_flag("--mission-runs-in-hold", args->mission_runs_in_hold,
+                "Keep the mission's clock running while the supervisor holds (default: paused, "
+                "the mission resumes where it stopped)");
   cmd->add_flag("--print-world", args->print_world,
                 "Print the --world as documented YAML (a file to start from), then exit");
   cmd->add_option("--vo-off-at", args->vo_off_at_s,

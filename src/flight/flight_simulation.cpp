@@ -93,7 +93,9 @@ class FlightLoop {
   control::CommandWatchdog watchdog_;
 
   double camera_period_s_;
-  std::int64_t next_frame_ = 0;  // index of the next camera frame
+  std::int64_t next_frame_ = 0;    // index of the next camera frame
+  double mission_paused_s_ = 0.0;  // mission time lost to the supervisor's holds
+  std::optional<double> last_control_t_s_;
   std::deque<InFlight> in_flight_;
   bool vo_ok_ = false;
   TimeNs last_vision_update_ns_ = 0;
@@ -222,8 +224,16 @@ EstimatorOutput FlightLoop::estimate(TimeNs t_ns) {
 
 FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
   const auto [e, health] = estimate(t_ns);
-  const control::SafetyDecision decision = supervisor_.update(
-      t_ns, e, health, scenario_.path.at(t_s), controller_.hover_thrust_estimate_N());
+  // The supervisor's mode of the previous step: the mission's time stands still in a hold
+  // (counted apart, so that a flight without holds has the mission at exactly t_s).
+  if (last_control_t_s_ && options_.pause_mission_in_hold &&
+      supervisor_.mode() != control::SafetyMode::kNominal) {
+    mission_paused_s_ += t_s - *last_control_t_s_;
+  }
+  last_control_t_s_ = t_s;
+  const control::SafetyDecision decision =
+      supervisor_.update(t_ns, e, health, scenario_.path.at(t_s - mission_paused_s_),
+                         controller_.hover_thrust_estimate_N());
   control::AttitudeThrustCommand command = decision.override_command
                                                ? *decision.override_command
                                                : controller_.update(e, decision.reference).command;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <optional>
 
 #include "kestrel/flight/flight_report.hpp"
 #include "kestrel/flight/flight_simulation.hpp"
@@ -67,6 +68,37 @@ TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
   EXPECT_TRUE(last.vo_ok);
   // Recovered: at the end the vehicle is back near the reference.
   EXPECT_LT((last.p_true - last.p_ref).norm(), 0.10);
+}
+
+// An outage on the square's first leg: the supervisor holds, and the mission's clock with it,
+// so that the reference handed back is where the mission stopped (with the clock running on
+// it would be ~0.4 m further along the leg).
+TEST(ClosedLoopFlight, MissionResumesWhereTheHoldStoppedIt) {
+  auto reference_jump = [](bool pause) {
+    FlightOptions o = small_options();
+    o.vo_off_at_s = 4.0;  // cruising along the first leg (it starts at 3 s)
+    o.vo_off_for_s = 1.0;
+    o.pause_mission_in_hold = pause;
+    FlightSimulation simulation(scenario("square"), o);
+    const FlightResult r = simulation.run(7.0);
+    EXPECT_FALSE(r.crashed);
+    std::optional<Eigen::Vector3d> before;
+    for (std::size_t i = 1; i < r.samples.size(); ++i) {
+      const FlightSample& prev = r.samples[i - 1];
+      const FlightSample& s = r.samples[i];
+      if (prev.mode == control::SafetyMode::kNominal && s.mode != control::SafetyMode::kNominal) {
+        before = prev.p_ref;
+      }
+      if (before && prev.mode != control::SafetyMode::kNominal &&
+          s.mode == control::SafetyMode::kNominal) {
+        return (s.p_ref - *before).norm();
+      }
+    }
+    ADD_FAILURE() << "no hold and return to the mission";
+    return 0.0;
+  };
+  EXPECT_LT(reference_jump(true), 0.05);
+  EXPECT_GT(reference_jump(false), 0.2);
 }
 
 // The realistic world (wind, a heavier and weaker vehicle than the controller assumes, the

@@ -40,6 +40,10 @@ struct FlightOptions {
   double vo_off_at_s = -1.0;
   double vo_off_for_s = 0.0;
   std::uint64_t seed = 1;  ///< IMU noise and biases, camera noise, pattern, scene textures
+  /// The mission's clock runs only while the supervisor flies the mission: a hold (odometry
+  /// lost) pauses it, so that the vehicle resumes where it stopped instead of being handed a
+  /// reference that ran on meanwhile (false: the clock is the flight's).
+  bool pause_mission_in_hold = true;
 
   /// Wind, the true vehicle against `vehicle`, the IMU's in-flight noise and drift, the
   /// camera's imperfections (default: ideal, none of them).
