@@ -1,4 +1,5 @@
 // `kestrel fly`: the closed-loop flight of the whole pipeline in simulation.
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -6,13 +7,13 @@
 #include <string>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/flight/flight_report.hpp"
 #include "kestrel/flight/flight_simulation.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/sim/scenes.hpp"
-#include "interrupt.hpp"
 #include "option_checks.hpp"
 #include "progress.hpp"
 
@@ -26,6 +27,9 @@ struct FlyArgs {
   std::string out;
   bool force = false;
   bool list = false;
+  std::string world = "ideal";
+  bool print_world = false;
+  bool mission_runs_in_hold = false;
   double vo_off_at_s = -1.0;
   double vo_off_for_s = 2.0;
   double latency_s = -1.0;
@@ -43,9 +47,16 @@ void run_fly(const FlyArgs& a) {
     }
     return;
   }
+  const sim::WorldOptions world = sim::WorldOptions::from_argument(a.world);
+  if (a.print_world) {
+    std::cout << world.to_documented_yaml();
+    return;
+  }
   if (a.out.empty()) throw InputError("fly: --out DIR is required");
   flight::FlightOptions options;
   options.seed = a.seed;
+  options.world = world;
+  options.pause_mission_in_hold = !a.mission_runs_in_hold;
   if (!a.vehicle_yaml.empty()) options.vehicle = sim::QuadrotorParameters::load(a.vehicle_yaml);
   if (!a.controller_yaml.empty()) {
     options.controller = control::PositionControllerOptions::load(a.controller_yaml);
@@ -87,8 +98,8 @@ void run_fly(const FlyArgs& a) {
     options.vo_off_for_s = a.vo_off_for_s;
   }
 
-  const sim::Scene probe = sim::make_scene(
-      flight::make_scenario(a.scenario, SE3()).scene);  // validates the name early
+  const sim::Scene probe =
+      sim::make_scene(flight::make_scenario(a.scenario, SE3()).scene);  // validates the name early
   flight::Scenario scenario = flight::make_scenario(a.scenario, probe.T_world_start());
   const double duration = a.duration_s > 0.0 ? a.duration_s : scenario.default_duration_s;
   if (a.duration_s < 0.0) throw InputError("fly: --duration must be positive");
@@ -103,12 +114,13 @@ void run_fly(const FlyArgs& a) {
       .input("--tracker", a.tracker_yaml)
       .input("--matcher", a.matcher_yaml)
       .input("--sgm-options", a.sgm_yaml)
+      .input("--world", a.world == "ideal" || a.world == "realistic" ? std::string() : a.world)
       .folder("--out", a.out);
 
   flight::FlightSimulation simulation(std::move(scenario), options);
   std::cerr << "kestrel fly: scenario " << a.scenario << " in scene '" << probe.name() << "', "
-            << duration << " s, seed " << a.seed << "\n  vision: "
-            << options.vision.describe() << "\n";
+            << duration << " s, seed " << a.seed << "\n  world: " << options.world.describe()
+            << "\n  vision: " << options.vision.describe() << "\n";
   const InterruptScope interrupt;  // Ctrl-C: the logs of the flight so far are written
   ProgressBar bar("flying (simulated s)", static_cast<std::size_t>(duration));
   const flight::FlightResult result = simulation.run(
@@ -116,16 +128,25 @@ void run_fly(const FlyArgs& a) {
       interrupt.flag());
   bar.finish();
 
-  const auto logs = flight::write_flight_logs(a.out, result);
+  auto logs = flight::write_flight_logs(a.out, result);
+  {
+    // The world flown, as a file `--world` reads back.
+    const std::filesystem::path world_path = std::filesystem::path(a.out) / "world.yaml";
+    std::ofstream f(world_path);
+    f << options.world.to_documented_yaml();
+    if (!f) throw InputError(world_path.string() + ": cannot write");
+    logs.push_back(world_path);
+  }
   const auto plots = flight::write_flight_plots(a.out, result);
-  const double realtime = result.counters.wall_s > 0.0 ? result.duration_s / result.counters.wall_s : 0.0;
+  const double realtime =
+      result.counters.wall_s > 0.0 ? result.duration_s / result.counters.wall_s : 0.0;
   std::cout << std::fixed << std::setprecision(3) << "scenario " << result.scenario << ": "
             << result.duration_s << " s simulated in " << result.counters.wall_s << " s ("
-            << std::setprecision(2) << realtime << "x real time), final mode "
-            << result.final_mode << "\n"
-            << "  tracking RMS " << std::setprecision(4) << result.rms_tracking_m()
-            << " m (max " << result.max_tracking_m() << " m), estimate RMS "
-            << result.rms_estimate_m() << " m, scored from t = " << result.settle_s << " s\n"
+            << std::setprecision(2) << realtime << "x real time), final mode " << result.final_mode
+            << "\n"
+            << "  tracking RMS " << std::setprecision(4) << result.rms_tracking_m() << " m (max "
+            << result.max_tracking_m() << " m), estimate RMS " << result.rms_estimate_m()
+            << " m, scored from t = " << result.settle_s << " s\n"
             << "  " << result.counters.describe() << "\n";
   for (const auto& p : logs) std::cout << "  log:  " << p.string() << "\n";
   for (const auto& p : plots) std::cout << "  plot: " << p.string() << "\n";
@@ -143,8 +164,9 @@ void run_fly(const FlyArgs& a) {
 void add_fly_command(CLI::App& app) {
   auto args = std::make_shared<FlyArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "fly", "Fly a closed loop in simulation: render -> active stereo -> odometry -> EKF -> "
-             "controller -> PWM -> flight controller -> dynamics");
+      "fly",
+      "Fly a closed loop in simulation: render -> active stereo -> odometry -> EKF -> "
+      "controller -> PWM -> flight controller -> dynamics");
   cmd->add_option("--scenario", args->scenario, "hover, square or corridor (see --list)")
       ->capture_default_str();
   cmd->add_option("--duration", args->duration_s,
@@ -153,9 +175,19 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--seed", args->seed, "Seed of every random part (IMU, noise, pattern)")
       ->capture_default_str()
       ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
-  cmd->add_option("--out", args->out, "Output folder: log.csv, details.csv, top_view.png, errors.png");
+  cmd->add_option("--out", args->out,
+                  "Output folder: log.csv, details.csv, top_view.png, errors.png");
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->add_flag("--list", args->list, "List the scenarios, then exit");
+  cmd->add_option("--world", args->world,
+                  "The simulated world: ideal (default), realistic, or a YAML file "
+                  "(docs/flight.md, \"World\"; --print-world writes one)")
+      ->capture_default_str();
+  cmd->add_flag("--mission-runs-in-hold", args->mission_runs_in_hold,
+                "Keep the mission's clock running while the supervisor holds (default: paused, "
+                "the mission resumes where it stopped)");
+  cmd->add_flag("--print-world", args->print_world,
+                "Print the --world as documented YAML (a file to start from), then exit");
   cmd->add_option("--vo-off-at", args->vo_off_at_s,
                   "Switch the odometry off at this time (s) to test the IMU hold")
       ->check(number_in(0.0, 3600.0, "a time in [0, 3600] s"));
@@ -170,10 +202,12 @@ void add_fly_command(CLI::App& app) {
                   "or previous_frame (docs/flight.md compares them)");
   cmd->add_option("--projector", args->projector,
                   "Projector mode: ambient (default: room light + pattern), dark, off (passive)");
-  cmd->add_option("--vehicle", args->vehicle_yaml, "Vehicle parameters YAML (config/vehicle_default.yaml)");
+  cmd->add_option("--vehicle", args->vehicle_yaml,
+                  "Vehicle parameters YAML (config/vehicle_default.yaml)");
   cmd->add_option("--controller", args->controller_yaml,
                   "Position-controller gains YAML (config/controller_default.yaml)");
-  cmd->add_option("--imu", args->imu_yaml, "IMU noise, EuRoC sensor.yaml format (config/imu_default.yaml)");
+  cmd->add_option("--imu", args->imu_yaml,
+                  "IMU noise, EuRoC sensor.yaml format (config/imu_default.yaml)");
   cmd->add_option("--safety", args->safety_yaml, "Safety options YAML");
   cmd->add_option("--tracker", args->tracker_yaml, "Direct-odometry options YAML");
   cmd->add_option("--matcher", args->matcher_yaml, "Block-matcher options YAML");

@@ -5,15 +5,18 @@
 #include <chrono>
 #include <cmath>
 #include <deque>
+#include <iterator>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "kestrel/control/pwm_output.hpp"
 #include "kestrel/flight/imu_forward_predictor.hpp"
+#include "kestrel/sim/camera_link.hpp"
 #include "kestrel/sim/scenes.hpp"
 #include "kestrel/sim/simulated_vehicle.hpp"
 #include "kestrel/sim/vehicle_imu.hpp"
+#include "kestrel/sim/wind.hpp"
 
 namespace kestrel::flight {
 namespace {
@@ -59,7 +62,11 @@ class FlightLoop {
   void sense(TimeNs t_ns, double t_s);
   /// One on-board control step: estimate, safety, position control, command to the motors.
   FlightSample control_step(TimeNs t_ns, double t_s);
-  void step_vehicle(double dt_s) { vehicle_.step(dt_s, output_.latest()); }
+  void step_vehicle(double dt_s) {
+    const sim::QuadrotorState& s = vehicle_.state();
+    vehicle_.quadrotor().set_wind_world(wind_.step(dt_s, s.p_world, s.v_world));
+    vehicle_.step(dt_s, output_.latest());
+  }
 
   [[nodiscard]] control::SafetyMode mode() const { return supervisor_.mode(); }
   /// The frame counters and the filter's.
@@ -73,6 +80,8 @@ class FlightLoop {
   const FlightOptions& options_;
   const Scenario& scenario_;
   sim::SimulatedVehicle vehicle_;
+  sim::WindModel wind_;
+  sim::CameraLink link_;
   sim::VehicleImuSimulator imu_;
   StereoVision vision_;
   fusion::FusionEngine fusion_;
@@ -84,7 +93,9 @@ class FlightLoop {
   control::CommandWatchdog watchdog_;
 
   double camera_period_s_;
-  std::int64_t next_frame_ = 0;  // index of the next camera frame
+  std::int64_t next_frame_ = 0;    // index of the next camera frame
+  double mission_paused_s_ = 0.0;  // mission time lost to the supervisor's holds
+  std::optional<double> last_control_t_s_;
   std::deque<InFlight> in_flight_;
   bool vo_ok_ = false;
   TimeNs last_vision_update_ns_ = 0;
@@ -97,10 +108,17 @@ FlightLoop::FlightLoop(const sim::Scene& scene, const FlightOptions& options,
                        const Scenario& scenario)
     : options_(options),
       scenario_(scenario),
-      vehicle_(options.vehicle, options.flight_controller,
-               sim::Quadrotor::hover_state(options.vehicle, scene.T_world_start().translation(),
-                                           control::yaw_of(scene.T_world_start().so3())),
-               options.physics_rate_hz),
+      // The true vehicle starts hovering (its own hover rotor speed); the flight controller
+      // is set up for the nominal one.
+      vehicle_(
+          options.world.vehicle_mismatch.true_vehicle(options.vehicle), options.flight_controller,
+          sim::Quadrotor::hover_state(options.world.vehicle_mismatch.true_vehicle(options.vehicle),
+                                      scene.T_world_start().translation(),
+                                      control::yaw_of(scene.T_world_start().so3())),
+          options.physics_rate_hz, options.vehicle),
+      wind_(options.world.wind, options.seed),
+      link_(options.world.camera.drop_probability, options.world.camera.latency_jitter_s,
+            options.seed),
       imu_(options.imu_noise, options.seed),
       vision_(scene, options.vision, options.seed),
       fusion_(options.fusion),
@@ -111,6 +129,12 @@ FlightLoop::FlightLoop(const sim::Scene& scene, const FlightOptions& options,
       supervisor_(options.safety),
       watchdog_(options.watchdog),
       camera_period_s_(1.0 / options.camera_rate_hz) {
+  const sim::ImuWorldOptions& w = options.world.imu;
+  if (w.warm_up_gyro_drift_rad_s > 0.0 || w.warm_up_accel_drift_m_s2 > 0.0) {
+    imu_.set_warm_up_drift(w.warm_up_gyro_drift_rad_s, w.warm_up_accel_drift_m_s2,
+                           w.warm_up_time_constant_s);
+  }
+  vision_.set_exposure(options.world.camera.exposure());
   start_estimator();
 }
 
@@ -135,14 +159,17 @@ void FlightLoop::sense(TimeNs t_ns, double t_s) {
     ++next_frame_;
     camera_frame(t_ns, t_s);
   }
+  // in_flight_ is sorted by arrival: with jitter a frame may overtake the one before it.
   while (!in_flight_.empty() && in_flight_.front().arrives_ns <= t_ns) {
     fusion_.add_relative_pose(in_flight_.front().measurement);
     in_flight_.pop_front();
   }
 }
 
-// The frame is rendered from the true pose; its measurement reaches the filter after the
-// vision latency.
+// The frame is rendered from the true pose (with the world's blur and rolling shutter), is
+// stamped t - t_d on the IMU clock (the true camera-IMU offset, unknown to the filter), and
+// its measurement reaches the filter after the vision latency (with the world's jitter) unless
+// the frame is lost on the way.
 void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   const bool off = options_.vo_off_at_s >= 0.0 && t_s >= options_.vo_off_at_s &&
                    t_s < options_.vo_off_at_s + options_.vo_off_for_s;
@@ -151,9 +178,17 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     vo_ok_ = false;
     return;
   }
+  if (link_.drop()) {
+    ++counters_.frames_dropped;
+    return;
+  }
   const sim::QuadrotorState& truth = vehicle_.state();
-  const VisionFrame frame = vision_.process(t_ns, SE3(truth.R_world_body, truth.p_world));
+  const BodyTwist twist{truth.v_world, truth.omega_body};
+  const TimeNs stamp_ns = t_ns - s_to_ns(options_.world.imu.camera_time_offset_s);
+  const VisionFrame frame =
+      vision_.process(stamp_ns, SE3(truth.R_world_body, truth.p_world), &twist);
   ++counters_.frames;
+  counters_.expose_ms += frame.expose_ms;
   counters_.depth_fill_sum += frame.depth_fill;
   counters_.render_ms += frame.render_ms;
   counters_.match_ms += frame.match_ms;
@@ -161,7 +196,11 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   vo_ok_ = frame.track.ok();
   if (vo_ok_) ++counters_.frames_tracked;
   if (frame.measurement) {
-    in_flight_.push_back({t_ns + s_to_ns(options_.vision_latency_s), *frame.measurement});
+    const InFlight m{t_ns + s_to_ns(link_.latency_s(options_.vision_latency_s)),
+                     *frame.measurement};
+    auto at = in_flight_.end();
+    while (at != in_flight_.begin() && std::prev(at)->arrives_ns > m.arrives_ns) --at;
+    in_flight_.insert(at, m);
   }
 }
 
@@ -185,8 +224,16 @@ EstimatorOutput FlightLoop::estimate(TimeNs t_ns) {
 
 FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
   const auto [e, health] = estimate(t_ns);
-  const control::SafetyDecision decision = supervisor_.update(
-      t_ns, e, health, scenario_.path.at(t_s), controller_.hover_thrust_estimate_N());
+  // The supervisor's mode of the previous step: the mission's time stands still in a hold
+  // (counted apart, so that a flight without holds has the mission at exactly t_s).
+  if (last_control_t_s_ && options_.pause_mission_in_hold &&
+      supervisor_.mode() != control::SafetyMode::kNominal) {
+    mission_paused_s_ += t_s - *last_control_t_s_;
+  }
+  last_control_t_s_ = t_s;
+  const control::SafetyDecision decision =
+      supervisor_.update(t_ns, e, health, scenario_.path.at(t_s - mission_paused_s_),
+                         controller_.hover_thrust_estimate_N());
   control::AttitudeThrustCommand command = decision.override_command
                                                ? *decision.override_command
                                                : controller_.update(e, decision.reference).command;
@@ -235,6 +282,7 @@ void FlightOptions::validate() const {
     throw std::invalid_argument("flight: vision_latency_s must be in [0, 1] s");
   }
   if (!(vo_off_for_s >= 0.0)) throw std::invalid_argument("flight: vo_off_for_s must be >= 0");
+  world.validate();
   vision.validate();
   fusion.validate();
   safety.validate();
@@ -244,9 +292,10 @@ std::string FlightCounters::describe() const {
   std::ostringstream os;
   const double n = frames > 0 ? static_cast<double>(frames) : 1.0;
   os << "frames " << frames << " (tracked " << frames_tracked << ", odometry off " << frames_off
-     << "), mean depth fill " << 100.0 * depth_fill_sum / n << " %, per frame: render "
-     << render_ms / n << " ms, stereo " << match_ms / n << " ms, odometry " << track_ms / n
-     << " ms; fusion " << fusion.describe();
+     << ", dropped " << frames_dropped << "), mean depth fill " << 100.0 * depth_fill_sum / n
+     << " %, per frame: render " << render_ms / n << " ms (blur and shutter " << expose_ms / n
+     << " ms), stereo " << match_ms / n << " ms, odometry " << track_ms / n << " ms; fusion "
+     << fusion.describe();
   return os.str();
 }
 
@@ -271,12 +320,24 @@ FlightSimulation::FlightSimulation(Scenario scenario, FlightOptions options)
   // The simulated IMU draws exactly these densities: the filter keeps its own inflation (none
   // unless the fusion options set one), not the in-flight factor set_imu_noise() gives a real
   // IMU's sensor file.
+  // The world's IMU: its in-flight densities are the simulated ones and the filter's (a real
+  // filter reads the data sheet's from the sensor file and applies the same in-flight factor).
+  options_.validate();
+  const sim::ImuWorldOptions& w = options_.world.imu;
+  options_.imu_noise.gyro_noise_density *= w.white_noise_scale;
+  options_.imu_noise.accel_noise_density *= w.white_noise_scale;
+  options_.imu_noise.gyro_random_walk *= w.bias_random_walk_scale;
+  options_.imu_noise.accel_random_walk *= w.bias_random_walk_scale;
   const double inflation = options_.fusion.imu_noise_inflation;
   options_.fusion.set_imu_noise(options_.imu_noise);
   options_.fusion.imu_noise_inflation = inflation;
   options_.fusion.T_body_cam = options_.vision.T_body_cam;
-  options_.fusion.reorder_window_s =
-      std::max(options_.fusion.reorder_window_s, options_.vision_latency_s + 0.010);
+  // The filter must hold its inputs until the latest measurement has arrived: the longest
+  // latency, plus the stamp's offset from the exposure (the designer knows neither exactly,
+  // so 10 ms of margin).
+  const double longest_s = options_.vision_latency_s + options_.world.camera.latency_jitter_s +
+                           std::max(0.0, options_.world.imu.camera_time_offset_s);
+  options_.fusion.reorder_window_s = std::max(options_.fusion.reorder_window_s, longest_s + 0.010);
   options_.validate();
 }
 

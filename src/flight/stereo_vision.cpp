@@ -45,12 +45,16 @@ RectifiedStereo StereoVisionOptions::rig() const {
 }
 
 void StereoVisionOptions::validate() const {
-  if (width < 32 || height < 32) throw std::invalid_argument("vision: width and height must be >= 32");
+  if (width < 32 || height < 32)
+    throw std::invalid_argument("vision: width and height must be >= 32");
   if (!(f_px > 0.0)) throw std::invalid_argument("vision: f_px must be positive");
   if (!(baseline_m > 0.0)) throw std::invalid_argument("vision: baseline_m must be positive");
-  if (!(intensity_sigma >= 0.0)) throw std::invalid_argument("vision: intensity_sigma must be >= 0");
-  if (!(covariance_scale > 0.0)) throw std::invalid_argument("vision: covariance_scale must be positive");
-  if (!(max_frame_gap_s > 0.0)) throw std::invalid_argument("vision: max_frame_gap_s must be positive");
+  if (!(intensity_sigma >= 0.0))
+    throw std::invalid_argument("vision: intensity_sigma must be >= 0");
+  if (!(covariance_scale > 0.0))
+    throw std::invalid_argument("vision: covariance_scale must be positive");
+  if (!(max_frame_gap_s > 0.0))
+    throw std::invalid_argument("vision: max_frame_gap_s must be positive");
   rig().validate();
   matcher.validate();
   if (matcher_kind == sensor::StereoMatcherKind::kSgm) {
@@ -97,7 +101,22 @@ StereoVision::StereoVision(const sim::Scene& scene, const StereoVisionOptions& o
 
 StereoVision::~StereoVision() = default;
 
-VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
+namespace {
+
+// The camera's twist in its own frame from the body's (world velocity, body rate), the camera
+// at T_body_cam.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> camera_twist(const BodyTwist& b,
+                                                         const SE3& T_world_body,
+                                                         const SE3& T_body_cam) {
+  const Eigen::Matrix3d R_cam_body = T_body_cam.so3().matrix().transpose();
+  const Eigen::Vector3d v_body =
+      T_world_body.so3().inverse() * b.v_world + b.omega_body.cross(T_body_cam.translation());
+  return {R_cam_body * v_body, R_cam_body * b.omega_body};
+}
+
+}  // namespace
+
+VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const BodyTwist* twist) {
   VisionFrame out;
   out.t_ns = t_ns;
   const SE3 T_world_left = T_world_body * options_.T_body_cam;
@@ -122,6 +141,28 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body) {
     tracking.get();
   } else {
     tracking_gray_ = left_gray_;
+  }
+  if (twist != nullptr && exposure_.active()) {
+    const auto expose_start = std::chrono::steady_clock::now();
+    const bool shared = tracking_gray_.data == left_gray_.data;
+    const SE3 T_body_right = options_.T_body_cam * renderer_.T_left_right();
+    const auto [v_left, w_left] = camera_twist(*twist, T_world_body, options_.T_body_cam);
+    const auto [v_right, w_right] = camera_twist(*twist, T_world_body, T_body_right);
+    const PinholeCamera left = rig_.left();
+    sim::image_flow(left, frame_.left.depth_m, v_left, w_left, flow_);
+    sim::expose(left_gray_, flow_, exposure_, exposed_);
+    exposed_.copyTo(left_gray_);
+    if (shared) {
+      tracking_gray_ = left_gray_;
+    } else {
+      // The tracking view is the left camera: same flow (its depth is the same surface).
+      sim::expose(tracking_gray_, flow_, exposure_, exposed_);
+      exposed_.copyTo(tracking_gray_);
+    }
+    sim::image_flow(left, frame_.right.depth_m, v_right, w_right, flow_);
+    sim::expose(right_gray_, flow_, exposure_, exposed_);
+    exposed_.copyTo(right_gray_);
+    out.expose_ms = ms_since(expose_start);
   }
   out.render_ms = ms_since(start);
 

@@ -79,6 +79,12 @@ void QuadrotorParameters::validate() const {
     nonneg("quadratic_drag_N_s2_m2", quadratic_drag_N_s2_m2[i]);
   }
   nonneg("angular_drag_N_m_s", angular_drag_N_m_s);
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::isfinite(center_of_mass_offset_m[i]) &&
+          std::abs(center_of_mass_offset_m[i]) < 0.5 * arm_length_m)) {
+      fail("center_of_mass_offset_m", "must be finite and within half the arm length");
+    }
+  }
   if (!std::isfinite(ground_z_m)) fail("ground_z_m", "must be finite");
   pos("crash_speed_m_s", crash_speed_m_s);
   pos("crash_tilt_deg", crash_tilt_deg);
@@ -88,12 +94,14 @@ void QuadrotorParameters::validate() const {
   if (max_integration_step_s > motor_time_constant_s) {
     fail("max_integration_step_s", "must not exceed motor_time_constant_s (RK4 stability)");
   }
-  if (max_thrust_N() <= hover_thrust_N()) fail("max_rotor_speed_rad_s", "the vehicle cannot lift its weight");
+  if (max_thrust_N() <= hover_thrust_N())
+    fail("max_rotor_speed_rad_s", "the vehicle cannot lift its weight");
 }
 
 std::string QuadrotorParameters::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
-QuadrotorParameters QuadrotorParameters::from_yaml(const YAML::Node& node, const std::string& source) {
+QuadrotorParameters QuadrotorParameters::from_yaml(const YAML::Node& node,
+                                                   const std::string& source) {
   QuadrotorParameters p;
   io::option_fields::read_fields(node, source, "vehicle", p);
   p.validate();
@@ -129,10 +137,11 @@ Eigen::Matrix4d Quadrotor::allocation_matrix() const {
   const std::array<double, 4> spin{1.0, -1.0, 1.0, -1.0};  // +1: reaction torque along +z
   for (int i = 0; i < 4; ++i) {
     const double angle = std::numbers::pi / 4.0 + std::numbers::pi / 2.0 * i;
-    const double x = P.arm_length_m * std::cos(angle);
-    const double y = P.arm_length_m * std::sin(angle);
+    // Torque arms about the centre of mass.
+    const double x = P.arm_length_m * std::cos(angle) - P.center_of_mass_offset_m.x();
+    const double y = P.arm_length_m * std::sin(angle) - P.center_of_mass_offset_m.y();
     M(0, i) = P.thrust_coefficient;
-    M(1, i) = y * P.thrust_coefficient;   // tau = r x (0, 0, f)
+    M(1, i) = y * P.thrust_coefficient;  // tau = r x (0, 0, f)
     M(2, i) = -x * P.thrust_coefficient;
     M(3, i) = spin[static_cast<std::size_t>(i)] * P.drag_torque_coefficient;
   }
@@ -165,7 +174,7 @@ void Quadrotor::integrate(double h, const Eigen::Vector4d& command) {
     d.rotors_dot = (command - x.rotors) / P.motor_time_constant_s;
     const Eigen::Vector4d wrench = M * x.rotors.cwiseAbs2();  // [T, tau_x, tau_y, tau_z]
     const Eigen::Matrix3d R = x.q.toRotationMatrix();
-    const Eigen::Vector3d v_body = R.transpose() * x.v;
+    const Eigen::Vector3d v_body = R.transpose() * (x.v - wind_world_);  // air-relative
     const Eigen::Vector3d drag_body =
         -(P.linear_drag_N_s_m + P.quadratic_drag_N_s2_m2.cwiseProduct(v_body.cwiseAbs()))
              .cwiseProduct(v_body);
@@ -224,7 +233,8 @@ void Quadrotor::resolve_ground_contact() {
   const auto& P = parameters_;
   if (state_.p_world.z() > P.ground_z_m) return;
   const double speed = state_.v_world.norm();
-  const double tilt_deg = tilt_rad(state_.R_world_body.unit_quaternion()) * 180.0 / std::numbers::pi;
+  const double tilt_deg =
+      tilt_rad(state_.R_world_body.unit_quaternion()) * 180.0 / std::numbers::pi;
   state_.touchdown_speed_m_s = speed;
   if (speed > P.crash_speed_m_s || tilt_deg > P.crash_tilt_deg) state_.crashed = true;
   // Settle on the floor, level, keeping the heading.

@@ -9,9 +9,10 @@ namespace kestrel::sim {
 
 SimulatedVehicle::SimulatedVehicle(QuadrotorParameters parameters,
                                    FlightControllerModelOptions fc_options, QuadrotorState initial,
-                                   double fc_rate_hz)
+                                   double fc_rate_hz,
+                                   const std::optional<QuadrotorParameters>& fc_vehicle)
     : quadrotor_(parameters, std::move(initial)),
-      fc_(std::move(fc_options), parameters),
+      fc_(std::move(fc_options), fc_vehicle.value_or(parameters)),
       fc_period_s_(fc_rate_hz > 0.0 ? 1.0 / fc_rate_hz : 0.0) {
   if (!(fc_rate_hz > 0.0)) throw InputError("simulated vehicle: fc_rate_hz must be positive");
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <optional>
 
 #include "kestrel/flight/flight_report.hpp"
 #include "kestrel/flight/flight_simulation.hpp"
@@ -67,6 +68,58 @@ TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
   EXPECT_TRUE(last.vo_ok);
   // Recovered: at the end the vehicle is back near the reference.
   EXPECT_LT((last.p_true - last.p_ref).norm(), 0.10);
+}
+
+// An outage on the square's first leg: the supervisor holds, and the mission's clock with it,
+// so that the reference handed back is where the mission stopped (with the clock running on
+// it would be ~0.4 m further along the leg).
+TEST(ClosedLoopFlight, MissionResumesWhereTheHoldStoppedIt) {
+  auto reference_jump = [](bool pause) {
+    FlightOptions o = small_options();
+    o.vo_off_at_s = 4.0;  // cruising along the first leg (it starts at 3 s)
+    o.vo_off_for_s = 1.0;
+    o.pause_mission_in_hold = pause;
+    FlightSimulation simulation(scenario("square"), o);
+    const FlightResult r = simulation.run(7.0);
+    EXPECT_FALSE(r.crashed);
+    std::optional<Eigen::Vector3d> before;
+    for (std::size_t i = 1; i < r.samples.size(); ++i) {
+      const FlightSample& prev = r.samples[i - 1];
+      const FlightSample& s = r.samples[i];
+      if (prev.mode == control::SafetyMode::kNominal && s.mode != control::SafetyMode::kNominal) {
+        before = prev.p_ref;
+      }
+      if (before && prev.mode != control::SafetyMode::kNominal &&
+          s.mode == control::SafetyMode::kNominal) {
+        return (s.p_ref - *before).norm();
+      }
+    }
+    ADD_FAILURE() << "no hold and return to the mission";
+    return 0.0;
+  };
+  EXPECT_LT(reference_jump(true), 0.05);
+  EXPECT_GT(reference_jump(false), 0.2);
+}
+
+// The realistic world (wind, a heavier and weaker vehicle than the controller assumes, the
+// in-flight IMU noise, an unknown camera-IMU offset, dropped, blurred, rolling-shutter frames
+// with jittered latency) on a short hover: it flies, loosely; docs/flight.md has the figures.
+TEST(ClosedLoopFlight, HoversInTheRealisticWorld) {
+  FlightOptions o = small_options();
+  o.world = sim::WorldOptions::realistic();
+  FlightSimulation simulation(scenario("hover"), o);
+  EXPECT_TRUE(simulation.options().fusion.estimate_time_offset);
+  EXPECT_EQ(simulation.options().fusion.time_offset_s, 0.0);  // its prior, not the truth
+  EXPECT_GE(simulation.options().fusion.reorder_window_s, 0.040 + 0.010 + 0.010);
+  const FlightResult r = simulation.run(6.0);
+  EXPECT_FALSE(r.crashed);
+  const std::size_t taken = r.counters.frames + r.counters.frames_dropped;
+  EXPECT_EQ(taken, 6u * 30u + 1u);
+  EXPECT_GT(r.counters.frames_dropped, 0u);
+  EXPECT_LT(r.counters.frames_dropped, taken / 5);
+  EXPECT_GT(r.counters.fusion.updates_accepted, r.counters.frames * 7 / 10);
+  EXPECT_LT(r.rms_tracking_m(), 0.15);
+  EXPECT_LT(r.rms_estimate_m(), 0.10);
 }
 
 TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {

@@ -24,16 +24,24 @@ struct PositionControllerOptions {
   // --- velocity loop (PI): acceleration per m/s of error ---
   double velocity_gain_xy = 3.0;  ///< 1/s
   double velocity_gain_z = 4.0;   ///< 1/s
-  double velocity_integral_gain_xy = 0.8;  ///< 1/s^2
-  double velocity_integral_gain_z = 2.0;   ///< 1/s^2 (learns the hover thrust)
-  double integral_limit_xy_m_s2 = 2.0;     ///< anti-windup clamp of the integral terms
-  double integral_limit_z_m_s2 = 3.0;
+  /// The integral is the controller's disturbance estimate (wind, a heavier or weaker
+  /// vehicle than mass_kg says). With k_p = 1.4, k_v = 3 its slowest closed-loop pole is at
+  /// -0.59 /s (s^3 + k_v s^2 + (k_p k_v + k_i) s + k_p k_i); 0.8 put it at -0.26 /s, a 4 s
+  /// time constant that left a step of wind 12 cm off after 4 s (docs/flight.md, "World").
+  /// 2.5 would be faster still but overshoots a 1 m step by more than 10 cm.
+  double velocity_integral_gain_xy = 2.0;  ///< 1/s^2
+  /// Learns the hover thrust: fast enough to catch a 28 % thrust deficit (mass +15 %, thrust
+  /// constant -10 %) in about 2 s.
+  double velocity_integral_gain_z = 6.0;  ///< 1/s^2
+  double integral_limit_xy_m_s2 = 2.0;    ///< anti-windup clamp of the integral terms
+  /// Covers that deficit (0.28 g = 2.75 m/s^2) with room for a downdraft.
+  double integral_limit_z_m_s2 = 4.0;
   double max_accel_xy_m_s2 = 5.0;
   // --- thrust and attitude limits ---
-  double max_tilt_deg = 30.0;      ///< below the flight controller's 45 deg (table C.3)
+  double max_tilt_deg = 30.0;          ///< below the flight controller's 45 deg (table C.3)
   double max_tilt_rate_deg_s = 180.0;  ///< slew limit of the roll/pitch commands
-  double min_thrust_N = 2.0;       ///< keeps the attitude controllable while descending
-  double max_thrust_N = 24.0;      ///< below the rotors' 28 N, leaving room for attitude
+  double min_thrust_N = 2.0;           ///< keeps the attitude controllable while descending
+  double max_thrust_N = 24.0;          ///< below the rotors' 28 N, leaving room for attitude
   // --- heading ---
   double yaw_gain = 1.5;  ///< 1/s
   double max_yaw_rate_deg_s = 90.0;

@@ -25,6 +25,7 @@
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/sim/flight_controller_model.hpp"
 #include "kestrel/sim/quadrotor.hpp"
+#include "kestrel/sim/world.hpp"
 
 namespace kestrel::flight {
 
@@ -39,14 +40,25 @@ struct FlightOptions {
   double vo_off_at_s = -1.0;
   double vo_off_for_s = 0.0;
   std::uint64_t seed = 1;  ///< IMU noise and biases, camera noise, pattern, scene textures
+  /// The mission's clock runs only while the supervisor flies the mission: a hold (odometry
+  /// lost) pauses it, so that the vehicle resumes where it stopped instead of being handed a
+  /// reference that ran on meanwhile (false: the clock is the flight's).
+  bool pause_mission_in_hold = true;
 
+  /// Wind, the true vehicle against `vehicle`, the IMU's in-flight noise and drift, the
+  /// camera's imperfections (default: ideal, none of them).
+  sim::WorldOptions world;
+  /// The nominal vehicle: the controller's, the flight controller's and the filter's; the
+  /// simulated one is world.vehicle_mismatch.true_vehicle(vehicle).
   sim::QuadrotorParameters vehicle;
   sim::FlightControllerModelOptions flight_controller;
-  io::ImuNoise imu_noise;  ///< default: sim::default_vehicle_imu_noise()
+  /// Data-sheet densities (default: sim::default_vehicle_imu_noise()); the simulated IMU and
+  /// the filter use them times world.imu's scales.
+  io::ImuNoise imu_noise;
   StereoVisionOptions vision;
   /// Noise densities and T_body_cam are taken from imu_noise and vision; the reorder window
-  /// is raised to vision_latency_s + 10 ms if it is shorter (the filter must wait for the
-  /// camera's measurements).
+  /// is raised to the longest vision latency (with the world's jitter and time offset) + 10 ms
+  /// if it is shorter (the filter must wait for the camera's measurements).
   fusion::FusionOptions fusion;
   control::PositionControllerOptions controller;
   control::PwmMapperOptions pwm;
@@ -76,9 +88,11 @@ struct FlightCounters {
   std::size_t frames = 0;          ///< camera frames processed
   std::size_t frames_tracked = 0;  ///< ... that the odometry tracked
   std::size_t frames_off = 0;      ///< camera frames while the odometry was switched off
+  std::size_t frames_dropped = 0;  ///< camera frames lost on the way (world.camera)
+  double expose_ms = 0.0;          ///< blur and rolling shutter (part of render_ms), total
   double depth_fill_sum = 0.0;
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;  ///< totals
-  double wall_s = 0.0;             ///< whole run
+  double wall_s = 0.0;                                     ///< whole run
   fusion::FusionCounters fusion;
   [[nodiscard]] std::string describe() const;
 };
@@ -109,8 +123,7 @@ class FlightSimulation {
   /// Flies for duration_s of simulated time (stops 1 s after a crash). `progress` is called
   /// once per simulated second. `stop` (may be null), when raised, ends the flight after the
   /// current control step (result.interrupted).
-  FlightResult run(double duration_s,
-                   const std::function<void(const FlightSample&)>& progress = {},
+  FlightResult run(double duration_s, const std::function<void(const FlightSample&)>& progress = {},
                    const std::atomic<bool>* stop = nullptr);
 
   [[nodiscard]] const Scenario& scenario() const { return scenario_; }

@@ -14,6 +14,7 @@
 #include "kestrel/odometry/direct_tracker.hpp"
 #include "kestrel/sensor/pattern.hpp"
 #include "kestrel/sensor/stereo_front_end.hpp"
+#include "kestrel/sim/exposure.hpp"
 #include "kestrel/sim/projector_light.hpp"
 #include "kestrel/sim/renderer.hpp"
 #include "kestrel/sim/scene.hpp"
@@ -76,6 +77,13 @@ struct VisionFrame {
   std::optional<fusion::RelativePoseMeasurement> measurement;
   double depth_fill = 0.0;  ///< share of pixels with a disparity
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;
+  double expose_ms = 0.0;  ///< motion blur and rolling shutter (included in render_ms)
+};
+
+/// The body's motion while the frame is taken (for the exposure effects).
+struct BodyTwist {
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();
 };
 
 class StereoVision {
@@ -86,8 +94,12 @@ class StereoVision {
   StereoVision(const StereoVision&) = delete;
   StereoVision& operator=(const StereoVision&) = delete;
 
-  /// Renders, matches and tracks the frame the cameras take at t_ns from T_world_body.
-  VisionFrame process(TimeNs t_ns, const SE3& T_world_body);
+  /// Renders, matches and tracks the frame the cameras take at t_ns from T_world_body. With a
+  /// twist and active exposure options (set_exposure), the rendered views get the motion blur
+  /// and rolling shutter of that motion (sim::expose), t_ns being the middle row's
+  /// mid-exposure.
+  VisionFrame process(TimeNs t_ns, const SE3& T_world_body, const BodyTwist* twist = nullptr);
+  void set_exposure(const sim::ExposureOptions& exposure) { exposure_ = exposure; }
 
   [[nodiscard]] const StereoVisionOptions& options() const { return options_; }
   /// The last left stereo image, tracking image and depth (for figures).
@@ -102,7 +114,7 @@ class StereoVision {
   sim::Scene lit_scene_;
   sim::StereoRenderer renderer_;
   std::optional<sim::Renderer> tracking_renderer_;  // the left view without the pattern
-  sim::Scene scene_;                               // unlit by the projector
+  sim::Scene scene_;                                // unlit by the projector
   sim::RenderedFrame tracking_frame_;
   sensor::StereoFrontEnd front_end_;
   odometry::DirectTracker tracker_;
@@ -111,6 +123,8 @@ class StereoVision {
   sensor::StereoDepthFrame depth_;
   fusion::OdometryMeasurements measurements_;
   std::optional<TimeNs> last_frame_ns_;
+  sim::ExposureOptions exposure_;
+  cv::Mat flow_, exposed_;
 };
 
 }  // namespace kestrel::flight

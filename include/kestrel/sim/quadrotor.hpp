@@ -20,7 +20,7 @@ namespace kestrel::sim {
 /// 0 and 2 spin clockwise seen from above (their drag torque turns the body counter-clockwise,
 /// +z), rotors 1 and 3 counter-clockwise.
 struct QuadrotorParameters {
-  double mass_kg = 1.2;        ///< table C.3: take-off weight < 1200 g
+  double mass_kg = 1.2;         ///< table C.3: take-off weight < 1200 g
   double arm_length_m = 0.175;  ///< table C.3: 350 mm motor-to-motor diagonal / 2
   /// Principal moments (kg m^2) of a 1.2 kg frame with 0.175 m arms, motors at the tips.
   Eigen::Vector3d inertia_kg_m2{0.0120, 0.0120, 0.0220};
@@ -37,7 +37,10 @@ struct QuadrotorParameters {
   Eigen::Vector3d linear_drag_N_s_m{0.30, 0.30, 0.40};
   Eigen::Vector3d quadratic_drag_N_s2_m2{0.09, 0.09, 0.12};
   double angular_drag_N_m_s = 2.0e-3;  ///< rotational damping torque per rad/s
-  double ground_z_m = 0.0;             ///< the floor plane
+  /// Centre of mass relative to the rotors' geometric centre, body frame (m): the rotors'
+  /// torque arms are taken about it (an asymmetric frame or payload; 0: symmetric).
+  Eigen::Vector3d center_of_mass_offset_m = Eigen::Vector3d::Zero();
+  double ground_z_m = 0.0;  ///< the floor plane
   /// A touchdown faster than this, or with more tilt, is a crash.
   double crash_speed_m_s = 2.0;
   double crash_tilt_deg = 60.0;
@@ -72,6 +75,7 @@ struct QuadrotorParameters {
     v("linear_drag_N_s_m", linear_drag_N_s_m);
     v("quadratic_drag_N_s2_m2", quadratic_drag_N_s2_m2);
     v("angular_drag_N_m_s", angular_drag_N_m_s);
+    v("center_of_mass_offset_m", center_of_mass_offset_m);
     v("ground_z_m", ground_z_m);
     v("crash_speed_m_s", crash_speed_m_s);
     v("crash_tilt_deg", crash_tilt_deg);
@@ -92,7 +96,7 @@ struct QuadrotorState {
   Eigen::Vector3d a_world = Eigen::Vector3d::Zero();
   Eigen::Vector3d alpha_body = Eigen::Vector3d::Zero();
   bool on_ground = false;
-  bool crashed = false;  ///< latched: a hard touchdown happened
+  bool crashed = false;              ///< latched: a hard touchdown happened
   double touchdown_speed_m_s = 0.0;  ///< speed at the last touchdown
 };
 
@@ -111,6 +115,10 @@ class Quadrotor {
 
   /// A constant external force (wind, a push) in the world frame, N.
   void set_external_force_world(const Eigen::Vector3d& f) { external_force_world_ = f; }
+  /// The air's velocity in the world frame (m/s), held until the next call: the body drag
+  /// acts on the air-relative velocity v - wind.
+  void set_wind_world(const Eigen::Vector3d& wind) { wind_world_ = wind; }
+  [[nodiscard]] const Eigen::Vector3d& wind_world() const { return wind_world_; }
 
   [[nodiscard]] const QuadrotorState& state() const { return state_; }
   void set_state(const QuadrotorState& s) { state_ = s; }
@@ -127,6 +135,7 @@ class Quadrotor {
   QuadrotorParameters parameters_;
   QuadrotorState state_;
   Eigen::Vector3d external_force_world_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d wind_world_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace kestrel::sim

@@ -26,11 +26,22 @@ class VehicleImuSimulator {
   /// sample; the white noise's discrete sigma is density * sqrt(rate_hz).
   io::ImuSample sample(const QuadrotorState& state);
 
-  /// The noise-free reading (specific force and rate in the IMU frame).
-  [[nodiscard]] io::ImuSample ideal_sample(const QuadrotorState& state, double gravity_m_s2 = 9.81) const;
+  /// A slow, temperature-like bias drift on top of the random walk: the biases move by
+  /// amplitude * (1 - exp(-t / time_constant_s)) along a fixed direction per sensor drawn from
+  /// the seed (an IMU warming up after power-on), t from the first sample.
+  void set_warm_up_drift(double gyro_amplitude_rad_s, double accel_amplitude_m_s2,
+                         double time_constant_s);
 
+  /// The noise-free reading (specific force and rate in the IMU frame).
+  [[nodiscard]] io::ImuSample ideal_sample(const QuadrotorState& state,
+                                           double gravity_m_s2 = 9.81) const;
+
+  /// The random-walk biases (without the warm-up drift).
   [[nodiscard]] const Eigen::Vector3d& gyro_bias() const { return gyro_bias_; }
   [[nodiscard]] const Eigen::Vector3d& accel_bias() const { return accel_bias_; }
+  /// The warm-up drift at time t_ns (added to the biases above).
+  [[nodiscard]] Eigen::Vector3d gyro_drift(TimeNs t_ns) const;
+  [[nodiscard]] Eigen::Vector3d accel_drift(TimeNs t_ns) const;
   [[nodiscard]] const io::ImuNoise& noise() const { return noise_; }
 
  private:
@@ -43,6 +54,10 @@ class VehicleImuSimulator {
   Eigen::Vector3d accel_bias_;
   bool has_last_ = false;
   TimeNs last_t_ns_ = 0;
+  TimeNs first_t_ns_ = 0;
+  Eigen::Vector3d gyro_drift_ = Eigen::Vector3d::Zero();  // amplitude * direction
+  Eigen::Vector3d accel_drift_ = Eigen::Vector3d::Zero();
+  double drift_time_constant_s_ = 1.0;
 };
 
 }  // namespace kestrel::sim
