@@ -92,14 +92,15 @@ class FlightLoop {
   FlightCounters counters_;
 };
 
-/// The vehicle hovers at the scene's start pose.
+/// The vehicle hovers at the scenario's start (or stands there on the floor, rotors at hover
+/// speed: the ground contact holds it until the thrust exceeds the weight).
 FlightLoop::FlightLoop(const sim::Scene& scene, const FlightOptions& options,
                        const Scenario& scenario)
     : options_(options),
       scenario_(scenario),
       vehicle_(options.vehicle, options.flight_controller,
-               sim::Quadrotor::hover_state(options.vehicle, scene.T_world_start().translation(),
-                                           control::yaw_of(scene.T_world_start().so3())),
+               sim::Quadrotor::hover_state(options.vehicle, scenario.start_world,
+                                           scenario.path.at(0.0).yaw_rad),
                options.physics_rate_hz),
       imu_(options.imu_noise, options.seed),
       vision_(scene, options.vision, options.seed),
@@ -277,6 +278,12 @@ FlightSimulation::FlightSimulation(Scenario scenario, FlightOptions options)
   options_.fusion.T_body_cam = options_.vision.T_body_cam;
   options_.fusion.reorder_window_s =
       std::max(options_.fusion.reorder_window_s, options_.vision_latency_s + 0.010);
+  // A mission that starts standing on the floor defines where the body origin rests: the
+  // vehicle's ground contact and the supervisor's landing detection use that height.
+  if (scenario_.starts_on_ground) {
+    options_.vehicle.ground_z_m = scenario_.start_world.z();
+    options_.safety.ground_z_m = scenario_.start_world.z();
+  }
   options_.validate();
 }
 
