@@ -33,7 +33,7 @@ double rms_over(const FlightResult& r, const std::function<double(const FlightSa
   double sum = 0.0;
   std::size_t n = 0;
   for (const FlightSample& s : r.samples) {
-    if (s.t_s < r.settle_s) continue;
+    if (s.t_s < r.settle_s || s.mode == control::SafetyMode::kLanded) continue;
     const double e = f(s);
     sum += e * e;
     ++n;
@@ -262,7 +262,9 @@ double FlightResult::rms_estimate_m() const {
 double FlightResult::max_tracking_m() const {
   double m = 0.0;
   for (const FlightSample& s : samples) {
-    if (s.t_s >= settle_s) m = std::max(m, (s.p_true - s.p_ref).norm());
+    if (s.t_s >= settle_s && s.mode != control::SafetyMode::kLanded) {
+      m = std::max(m, (s.p_true - s.p_ref).norm());
+    }
   }
   return m;
 }
