@@ -135,6 +135,28 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
       break;
   }
 
+  // Touchdown at the end of a mission that lands: once the vehicle has flown, a mission
+  // reference resting on the ground and an estimate low and still on it for landed_hold_s
+  // mean it has landed (motors off), also when the odometry was lost in the last centimetres
+  // (a forward camera near the floor sees it closer than its stereo range).
+  const double height = est.p_world.z() - o.ground_z_m;
+  if (height > 2.0 * o.landed_height_m) airborne_ = true;
+  const bool mission_on_ground = mission.p_world.z() - o.ground_z_m < o.landed_height_m &&
+                                 mission.v_world.norm() < o.landed_speed_m_s;
+  const bool low_and_still =
+      height < o.landed_height_m && std::abs(est.v_world.z()) < o.landed_speed_m_s;
+  if (airborne_ && mission_on_ground && low_and_still &&
+      (mode_ == SafetyMode::kNominal || mode_ == SafetyMode::kImuHold)) {
+    if (!touchdown_since_ns_) {
+      touchdown_since_ns_ = t_ns;
+    } else if (ns_to_s(t_ns - *touchdown_since_ns_) >= o.landed_hold_s) {
+      hold_ = mission;
+      enter(SafetyMode::kLanded, t_ns, "touched down at the end of the mission: motors off");
+    }
+  } else {
+    touchdown_since_ns_.reset();
+  }
+
   SafetyDecision d;
   d.mode = mode_;
   d.reason = reason_;

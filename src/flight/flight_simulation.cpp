@@ -36,7 +36,7 @@ double rms_over(const FlightResult& r, const std::function<double(const FlightSa
   double sum = 0.0;
   std::size_t n = 0;
   for (const FlightSample& s : r.samples) {
-    if (s.t_s < r.settle_s) continue;
+    if (s.t_s < r.settle_s || s.mode == control::SafetyMode::kLanded) continue;
     const double e = f(s);
     sum += e * e;
     ++n;
@@ -103,18 +103,18 @@ class FlightLoop {
   FlightCounters counters_;
 };
 
-/// The vehicle hovers at the scene's start pose.
+/// The vehicle hovers at the scenario's start (or stands there on the floor, rotors at hover
+/// speed: the ground contact holds it until the thrust exceeds the weight).
 FlightLoop::FlightLoop(const sim::Scene& scene, const FlightOptions& options,
                        const Scenario& scenario)
     : options_(options),
       scenario_(scenario),
-      // The true vehicle starts hovering (its own hover rotor speed); the flight controller
-      // is set up for the nominal one.
+      // The true vehicle starts hovering (its own hover rotor speed) or standing where the
+      // scenario starts; the flight controller is set up for the nominal one.
       vehicle_(
           options.world.vehicle_mismatch.true_vehicle(options.vehicle), options.flight_controller,
           sim::Quadrotor::hover_state(options.world.vehicle_mismatch.true_vehicle(options.vehicle),
-                                      scene.T_world_start().translation(),
-                                      control::yaw_of(scene.T_world_start().so3())),
+                                      scenario.start_world, scenario.path.at(0.0).yaw_rad),
           options.physics_rate_hz, options.vehicle),
       wind_(options.world.wind, options.seed),
       link_(options.world.camera.drop_probability, options.world.camera.latency_jitter_s,
@@ -310,7 +310,9 @@ double FlightResult::rms_estimate_m() const {
 double FlightResult::max_tracking_m() const {
   double m = 0.0;
   for (const FlightSample& s : samples) {
-    if (s.t_s >= settle_s) m = std::max(m, (s.p_true - s.p_ref).norm());
+    if (s.t_s >= settle_s && s.mode != control::SafetyMode::kLanded) {
+      m = std::max(m, (s.p_true - s.p_ref).norm());
+    }
   }
   return m;
 }
@@ -338,6 +340,12 @@ FlightSimulation::FlightSimulation(Scenario scenario, FlightOptions options)
   const double longest_s = options_.vision_latency_s + options_.world.camera.latency_jitter_s +
                            std::max(0.0, options_.world.imu.camera_time_offset_s);
   options_.fusion.reorder_window_s = std::max(options_.fusion.reorder_window_s, longest_s + 0.010);
+  // A mission that starts standing on the floor defines where the body origin rests: the
+  // vehicle's ground contact and the supervisor's landing detection use that height.
+  if (scenario_.starts_on_ground) {
+    options_.vehicle.ground_z_m = scenario_.start_world.z();
+    options_.safety.ground_z_m = scenario_.start_world.z();
+  }
   options_.validate();
 }
 

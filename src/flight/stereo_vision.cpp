@@ -2,7 +2,6 @@
 #include "kestrel/flight/stereo_vision.hpp"
 
 #include <chrono>
-#include <future>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -87,15 +86,22 @@ StereoVision::StereoVision(const sim::Scene& scene, const StereoVisionOptions& o
       rig_(options.rig()),
       projector_(std::make_shared<sim::ProjectorLight>(
           SE3(), sensor::generate_pattern(options.pattern, seed), options.projector)),
-      lit_scene_(sim::scene_with_projector(scene, projector_, options.projector_mode)),
+      tracking_view_(options_.track_without_pattern &&
+                     options_.projector_mode == sim::ProjectorMode::kAmbientAndPattern),
+      // With a tracking view the projector is a rig light (the same light, evaluated after
+      // the scene's, as the scene's last light would be): the left renderer then gives the
+      // view without it in the same pass.
+      lit_scene_(tracking_view_
+                     ? scene
+                     : sim::scene_with_projector(scene, projector_, options.projector_mode)),
       renderer_(rig_, render_options(options), seed),
       front_end_(rig_, front_end_options(options)),
       tracker_(rig_.left(), options.tracker),
       measurements_(options.measurement_reference, options.covariance_scale) {
-  if (options_.track_without_pattern &&
-      options_.projector_mode == sim::ProjectorMode::kAmbientAndPattern) {
-    scene_ = scene;
-    tracking_renderer_.emplace(rig_.left(), render_options(options_), seed + 7919);
+  if (tracking_view_) {
+    renderer_.add_rig_light(projector_);
+    // The seed of the separate tracking renderer this replaces: the same noise, frame by frame.
+    renderer_.reseed_left_without_rig_lights(seed + 7919);
   }
 }
 
@@ -124,21 +130,13 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const Bo
   projector_->set_pose(T_world_left * options_.projector.T_left_projector);
 
   auto start = std::chrono::steady_clock::now();
-  // The tracking view renders on a second thread beside the stereo pair: separate renderers,
-  // scenes and noise generators, lights const during a render, so the result is the same as
-  // one after the other.
-  std::future<void> tracking;
-  if (tracking_renderer_) {
-    tracking = std::async(std::launch::async, [this, &T_world_left] {
-      tracking_renderer_->render(scene_, T_world_left, tracking_frame_);
-      cv::cvtColor(tracking_frame_.color_bgr, tracking_gray_, cv::COLOR_BGR2GRAY);
-    });
-  }
-  renderer_.render(lit_scene_, T_world_left, frame_);
+  // The tracking view is the left view without the projector: the left renderer shades it in
+  // the same pass (one rasterisation, one texture lookup per pixel for both).
+  renderer_.render(lit_scene_, T_world_left, frame_, tracking_view_ ? &tracking_frame_ : nullptr);
   cv::cvtColor(frame_.left.color_bgr, left_gray_, cv::COLOR_BGR2GRAY);
   cv::cvtColor(frame_.right.color_bgr, right_gray_, cv::COLOR_BGR2GRAY);
-  if (tracking.valid()) {
-    tracking.get();
+  if (tracking_view_) {
+    cv::cvtColor(tracking_frame_.color_bgr, tracking_gray_, cv::COLOR_BGR2GRAY);
   } else {
     tracking_gray_ = left_gray_;
   }

@@ -93,6 +93,20 @@ void ProjectorLight::set_pose(const SE3& T_world_projector) {
 
 ColorBgr ProjectorLight::illuminate(const SurfacePoint& point,
                                     const ShadingContext& context) const {
+  return irradiance(point, context);
+}
+
+// The renderer hands a row of points at a time: one call, no per-point dispatch.
+void ProjectorLight::accumulate(std::span<const SurfacePoint> points,
+                                std::span<ColorBgr> irradiance_sum,
+                                const ShadingContext& context) const {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    irradiance_sum[i] += irradiance(points[i], context);
+  }
+}
+
+ColorBgr ProjectorLight::irradiance(const SurfacePoint& point,
+                                    const ShadingContext& context) const {
   const ColorBgr dark(0.0F, 0.0F, 0.0F);
   const Eigen::Vector3d p = T_projector_world_ * point.p_world;
   if (!(p.z() > 1e-6)) return dark;  // behind the projector
@@ -102,6 +116,9 @@ ColorBgr ProjectorLight::illuminate(const SurfacePoint& point,
   if (!(u >= -0.5 && v >= -0.5 && u <= options_.width - 0.5 && v <= options_.height - 0.5)) {
     return dark;
   }
+  // The pattern first: most points fall between its lines, where nothing else is needed.
+  const cv::Vec3f sample = pattern_at(u, v);
+  if (sample[0] <= 0.0F && sample[1] <= 0.0F && sample[2] <= 0.0F) return dark;
   const Eigen::Vector3d& c_world = T_world_projector_.translation();
   const Eigen::Vector3d to_projector = c_world - point.p_world;
   const double d = to_projector.norm();
@@ -112,6 +129,12 @@ ColorBgr ProjectorLight::illuminate(const SurfacePoint& point,
     if (!(cos_theta > 0.0)) return dark;
     gain *= cos_theta;
   }
+  // The shadow ray last: it is the expensive part (all faces).
+  if (options_.shadows && context.scene.occluded(point.p_world, c_world)) return dark;
+  return sample * static_cast<float>(gain);
+}
+
+cv::Vec3f ProjectorLight::pattern_at(double u, double v) const {
   // Bilinear sample, edge pixels clamped (the image ends at the half-pixel border).
   const int w = options_.width, h = options_.height;
   const double uc = std::clamp(u, 0.0, static_cast<double>(w - 1));
@@ -124,11 +147,7 @@ ColorBgr ProjectorLight::illuminate(const SurfacePoint& point,
   const auto* r1 = pattern_.ptr<cv::Vec3f>(v0 + 1);
   const cv::Vec3f top = r0[u0] * (1.0F - a) + r0[u0 + 1] * a;
   const cv::Vec3f bottom = r1[u0] * (1.0F - a) + r1[u0 + 1] * a;
-  const cv::Vec3f sample = top * (1.0F - b) + bottom * b;
-  if (sample[0] <= 0.0F && sample[1] <= 0.0F && sample[2] <= 0.0F) return dark;
-  // The shadow ray last: it is the expensive part (all faces).
-  if (options_.shadows && context.scene.occluded(point.p_world, c_world)) return dark;
-  return sample * static_cast<float>(gain);
+  return top * (1.0F - b) + bottom * b;
 }
 
 std::string ProjectorLight::describe() const {

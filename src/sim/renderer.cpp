@@ -161,7 +161,10 @@ RenderOptions RenderOptions::load_yaml(const std::filesystem::path& path) {
 // Renderer
 
 Renderer::Renderer(const PinholeCamera& camera, const RenderOptions& options, std::uint64_t seed)
-    : camera_(camera), options_(options), noise_(options_.noise, seed) {
+    : camera_(camera),
+      options_(options),
+      noise_(options_.noise, seed),
+      rig_free_noise_(options_.noise, seed + 1) {
   if (camera.has_distortion()) {
     throw std::invalid_argument(
         "Renderer: the camera has lens distortion; render camera.without_distortion()");
@@ -188,10 +191,11 @@ RenderedFrame Renderer::render(const Scene& scene, const SE3& T_world_cam) {
   return frame;
 }
 
-void Renderer::render(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame) {
+void Renderer::render(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame,
+                      RenderedFrame* without_rig_lights) {
   setup_faces(scene, T_world_cam);
   rasterize();
-  shade(scene, T_world_cam, frame);
+  shade(scene, T_world_cam, frame, without_rig_lights);
 }
 
 void Renderer::setup_faces(const Scene& scene, const SE3& T_world_cam) {
@@ -302,7 +306,8 @@ void Renderer::rasterize() {
 /// One frame's shading constants (camera, pose, lights, edge sampling) and the per-sample steps
 /// that both shading passes share; defined in the class so that they inline into the loops.
 struct Renderer::Shading {
-  Shading(const Renderer& renderer, const Scene& scene, const SE3& T_world_cam)
+  Shading(const Renderer& renderer, const Scene& scene, const SE3& T_world_cam,
+          bool without_rig_lights)
       : rig_lights(renderer.rig_lights_),
         context{scene, T_world_cam},
         R_wc(T_world_cam.rotation_matrix()),
@@ -318,7 +323,8 @@ struct Renderer::Shading {
         edge_k(renderer.options_.edge_supersampling),
         edge_lod_bias(-std::log2(static_cast<float>(edge_k))),
         iz_near(1.0 / renderer.options_.near_m),
-        iz_far(1.0 / renderer.options_.far_m) {}
+        iz_far(1.0 / renderer.options_.far_m),
+        rig_free(without_rig_lights) {}
 
   /// Albedo x texture of face `fs` seen through (u, v) at depth z (z = 1 / inverse depth).
   [[nodiscard]] ColorBgr surface_color(const FaceSetup& fs, double u, double v, double z,
@@ -353,9 +359,12 @@ struct Renderer::Shading {
     return SurfacePoint{R_wc * p_cam + t_wc, fs.n_world_facing, fs.face->primitive};
   }
 
-  /// Adds every light's irradiance at `points` to `irradiance`.
-  void light(std::span<const SurfacePoint> points, std::span<ColorBgr> irradiance) const {
+  /// Adds the scene's lights' irradiance at `points` to `irradiance`.
+  void light_scene(std::span<const SurfacePoint> points, std::span<ColorBgr> irradiance) const {
     for (const auto& l : context.scene.lights()) l->accumulate(points, irradiance, context);
+  }
+  /// Adds the rig lights' (after the scene's: the sums are those of one list of lights).
+  void light_rig(std::span<const SurfacePoint> points, std::span<ColorBgr> irradiance) const {
     for (const auto& l : rig_lights) l->accumulate(points, irradiance, context);
   }
 
@@ -372,10 +381,13 @@ struct Renderer::Shading {
   int edge_k;           // k x k samples per edge pixel; 1: no supersampling
   float edge_lod_bias;  // the samples' footprint is 1/k of a pixel's
   double iz_near, iz_far;
+  bool rig_free;  // also shade the view without the rig lights
 };
 
-void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame) {
-  const Shading shading(*this, scene, T_world_cam);
+void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame,
+                     RenderedFrame* without_rig_lights) {
+  const Shading shading(*this, scene, T_world_cam, without_rig_lights != nullptr);
+  if (shading.rig_free) rig_free_radiance_.create(camera_.height(), camera_.width(), CV_32FC3);
   // One row of points, or the k x k (<= 64) samples of an edge pixel.
   const int w = camera_.width();
   const auto batch = static_cast<std::size_t>(std::max(w, 64));
@@ -384,7 +396,8 @@ void Renderer::shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& 
   row_columns_.resize(static_cast<std::size_t>(w));
   shade_pixel_centres(shading);
   shade_edge_pixels(shading);
-  write_frame(frame);
+  write_frame(radiance_, noise_, frame);
+  if (shading.rig_free) write_frame(rig_free_radiance_, rig_free_noise_, *without_rig_lights);
 }
 
 // Every pixel at its centre ray; the lights are evaluated once per row, in a batch.
@@ -396,12 +409,14 @@ void Renderer::shade_pixel_centres(const Shading& shading) {
     auto* rad = radiance_.ptr<cv::Vec3f>(v);
     auto* depth = exact_depth_.ptr<float>(v);
     auto* cosi = cos_incidence_.ptr<float>(v);
+    auto* free = shading.rig_free ? rig_free_radiance_.ptr<cv::Vec3f>(v) : nullptr;
     const double y = (v - shading.cy) * shading.inv_fy;
     std::size_t n_lit = 0;
     for (int u = 0; u < w; ++u) {
       const int id = face_id_[row + static_cast<std::size_t>(u)];
       if (id < 0) {
         rad[u] = ColorBgr(0.0F, 0.0F, 0.0F);
+        if (free != nullptr) free[u] = rad[u];
         depth[u] = kNoDepth;
         cosi[u] = 0.0F;
         continue;
@@ -423,10 +438,20 @@ void Renderer::shade_pixel_centres(const Shading& shading) {
         ++n_lit;
       } else {
         rad[u] *= shading.ambient;
+        if (free != nullptr) free[u] = rad[u];
       }
     }
     if (n_lit > 0) {
-      shading.light({row_points_.data(), n_lit}, {row_irradiance_.data(), n_lit});
+      const std::span<const SurfacePoint> points{row_points_.data(), n_lit};
+      const std::span<ColorBgr> irradiance{row_irradiance_.data(), n_lit};
+      shading.light_scene(points, irradiance);
+      if (free != nullptr) {
+        for (std::size_t i = 0; i < n_lit; ++i) {
+          const int u = row_columns_[i];
+          free[u] = rad[u].mul(row_irradiance_[i]);
+        }
+      }
+      shading.light_rig(points, irradiance);
       for (std::size_t i = 0; i < n_lit; ++i) {
         cv::Vec3f& r = rad[row_columns_[i]];
         r = r.mul(row_irradiance_[i]);
@@ -449,14 +474,17 @@ void Renderer::shade_edge_pixels(const Shading& shading) {
       if (!on_face_boundary(face_id_, u, v, w, h)) continue;
       ++edge_pixels_;
       const std::size_t n_faces = faces_around(face_id_, u, v, w, h, faces);
+      ColorBgr rig_free;
       radiance_.at<cv::Vec3f>(v, u) =
-          supersample_pixel(shading, u, v, {faces.data(), n_faces}, sample_color);
+          supersample_pixel(shading, u, v, {faces.data(), n_faces}, sample_color, rig_free);
+      if (shading.rig_free) rig_free_radiance_.at<cv::Vec3f>(v, u) = rig_free;
     }
   }
 }
 
 ColorBgr Renderer::supersample_pixel(const Shading& shading, int u, int v,
-                                     std::span<const int> faces, std::span<ColorBgr> sample_color) {
+                                     std::span<const int> faces, std::span<ColorBgr> sample_color,
+                                     ColorBgr& rig_free) {
   const int k = shading.edge_k;
   std::size_t n_samples = 0;
   for (int j = 0; j < k; ++j) {
@@ -475,32 +503,42 @@ ColorBgr Renderer::supersample_pixel(const Shading& shading, int u, int v,
     }
   }
   // The lights see the pixel's samples in one batch.
+  const float scale = 1.0F / static_cast<float>(k * k);
+  auto average = [&] {
+    ColorBgr sum(0.0F, 0.0F, 0.0F);
+    for (std::size_t i = 0; i < n_samples; ++i) {
+      sum += shading.has_lights ? sample_color[i].mul(row_irradiance_[i])
+                                : sample_color[i] * shading.ambient;
+    }
+    return sum * scale;
+  };
   if (shading.has_lights && n_samples > 0) {
-    shading.light({row_points_.data(), n_samples}, {row_irradiance_.data(), n_samples});
+    const std::span<const SurfacePoint> points{row_points_.data(), n_samples};
+    const std::span<ColorBgr> irradiance{row_irradiance_.data(), n_samples};
+    shading.light_scene(points, irradiance);
+    if (shading.rig_free) rig_free = average();
+    shading.light_rig(points, irradiance);
+  } else if (shading.rig_free) {
+    rig_free = average();
   }
-  ColorBgr sum(0.0F, 0.0F, 0.0F);
-  for (std::size_t i = 0; i < n_samples; ++i) {
-    sum += shading.has_lights ? sample_color[i].mul(row_irradiance_[i])
-                              : sample_color[i] * shading.ambient;
-  }
-  return sum * (1.0F / static_cast<float>(k * k));
+  return average();
 }
 
 // Sensor noise, then the output images.
-void Renderer::write_frame(RenderedFrame& frame) {
+void Renderer::write_frame(cv::Mat& radiance, SensorNoise& noise, RenderedFrame& frame) {
   const int w = camera_.width();
   const int h = camera_.height();
   frame.depth_m.create(h, w, CV_32F);
   exact_depth_.copyTo(frame.depth_m);
-  const SensorNoiseOptions& no = noise_.options();
-  if (no.depth_noise_enabled()) noise_.apply_depth(frame.depth_m, cos_incidence_);
-  if (no.intensity_sigma > 0.0) noise_.apply_intensity(radiance_);
+  const SensorNoiseOptions& no = noise.options();
+  if (no.depth_noise_enabled()) noise.apply_depth(frame.depth_m, cos_incidence_);
+  if (no.intensity_sigma > 0.0) noise.apply_intensity(radiance);
 
   frame.color_bgr.create(h, w, CV_8UC3);
   frame.gray.create(h, w, CV_32F);
   frame.primitive_id.create(h, w, CV_32S);
   for (int v = 0; v < h; ++v) {
-    const auto* rad = radiance_.ptr<cv::Vec3f>(v);
+    const auto* rad = radiance.ptr<cv::Vec3f>(v);
     auto* bgr = frame.color_bgr.ptr<cv::Vec3b>(v);
     auto* gray = frame.gray.ptr<float>(v);
     auto* prim = frame.primitive_id.ptr<int>(v);
@@ -535,14 +573,15 @@ void StereoRenderer::add_rig_light(const std::shared_ptr<const LightSource>& lig
   right_.add_rig_light(light);
 }
 
-void StereoRenderer::render(const Scene& scene, const SE3& T_world_left, StereoFrame& frame) {
+void StereoRenderer::render(const Scene& scene, const SE3& T_world_left, StereoFrame& frame,
+                            RenderedFrame* left_without_rig_lights) {
   // The views render concurrently: separate renderers (buffers, noise generators), the scene
   // and its lights const, so the frame is the same as rendering one after the other.
   const SE3 T_world_right = T_world_left * T_left_right();
   std::future<void> right = std::async(std::launch::async, [this, &scene, &T_world_right, &frame] {
     right_.render(scene, T_world_right, frame.right);
   });
-  left_.render(scene, T_world_left, frame.left);
+  left_.render(scene, T_world_left, frame.left, left_without_rig_lights);
   right.get();
   const cv::Mat& z = left_.exact_depth_m();
   frame.disparity_px.create(z.size(), CV_32F);

@@ -11,7 +11,6 @@
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
-#include "kestrel/core/random.hpp"
 #include "kestrel/core/units.hpp"
 #include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/output_guard.hpp"
@@ -20,6 +19,9 @@
 namespace kestrel::sim {
 
 namespace {
+
+/// Uniform in [0, 1) from the top 53 bits.
+double unit_uniform(Xoshiro256pp& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 
 /// Standard normal deviates by Marsaglia and Tsang's ziggurat ("The Ziggurat Method for
 /// Generating Random Variables", J. Stat. Software 5(8), 2000; 128 layers), about five times
@@ -48,7 +50,7 @@ class Ziggurat {
     }
   }
 
-  double operator()(std::mt19937_64& rng) const {
+  double operator()(Xoshiro256pp& rng) const {
     for (;;) {
       const std::uint64_t bits = rng();
       const auto hz = static_cast<std::int32_t>(static_cast<std::uint32_t>(bits));
@@ -64,7 +66,7 @@ class Ziggurat {
         return hz > 0 ? kR + tx : -kR - tx;
       }
       // The wedge: accept under the density, else draw again.
-      if (fn_[iz] + uniform01(rng) * (fn_[iz - 1] - fn_[iz]) < std::exp(-0.5 * x * x)) return x;
+      if (fn_[iz] + unit_uniform(rng) * (fn_[iz - 1] - fn_[iz]) < std::exp(-0.5 * x * x)) return x;
     }
   }
 
@@ -75,7 +77,7 @@ class Ziggurat {
 
  private:
   static constexpr double kR = 3.442619855899;
-  static double uniform_open(std::mt19937_64& rng) {  // (0, 1]
+  static double uniform_open(Xoshiro256pp& rng) {  // (0, 1]
     return (static_cast<double>(rng() >> 11) + 1.0) * 0x1.0p-53;
   }
   std::uint32_t kn_[128]{};
@@ -216,7 +218,7 @@ void SensorNoise::apply_depth(cv::Mat& depth_m, const cv::Mat& cos_incidence) {
       double z = z_row[u];
       if (!(z > 0.0)) continue;
       if (z < o.min_range_m || z > o.max_range_m || static_cast<double>(c_row[u]) < cos_min ||
-          (o.missing_probability > 0.0 && uniform01(rng_) < o.missing_probability)) {
+          (o.missing_probability > 0.0 && unit_uniform(rng_) < o.missing_probability)) {
         z_row[u] = 0.0F;
         continue;
       }

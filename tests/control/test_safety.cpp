@@ -167,6 +167,42 @@ TEST(BoundCommand, ClipsAndReplacesNonFiniteValues) {
   EXPECT_FALSE(b.clipped || b.non_finite);
 }
 
+TEST(SafetySupervisor, TouchdownAtTheMissionsEndSwitchesTheMotorsOffButNotBeforeTakeOff) {
+  SafetySupervisor s;
+  EstimatorHealth h;
+  PositionReference on_ground;  // z = 0: the floor
+  VehicleStateEstimate e;
+  TimeNs t = 0;
+  auto step = [&](double z) {
+    e.p_world.z() = z;
+    h.last_vision_update_ns = t;
+    const auto d = s.update(t, e, h, on_ground, 11.8);
+    t += s_to_ns(0.005);
+    return d;
+  };
+  // Standing before take-off with the mission still on the ground: never "landed".
+  for (int k = 0; k < 1000; ++k) EXPECT_EQ(step(0.0).mode, SafetyMode::kNominal);
+  // Flies (the mission's reference in the air: no touchdown even when low), ...
+  PositionReference up;
+  up.p_world.z() = 1.0;
+  for (int k = 0; k < 400; ++k) {
+    e.p_world.z() = 1.0;
+    h.last_vision_update_ns = t;
+    EXPECT_EQ(s.update(t, e, h, up, 11.8).mode, SafetyMode::kNominal);
+    t += s_to_ns(0.005);
+  }
+  // ... comes back down: after landed_hold_s low and still on a mission on the ground, off.
+  SafetyDecision d;
+  for (int k = 0; k < 190; ++k) {
+    d = step(0.02);
+    EXPECT_EQ(d.mode, SafetyMode::kNominal) << k;
+  }
+  for (int k = 0; k < 20 && d.mode != SafetyMode::kLanded; ++k) d = step(0.02);
+  EXPECT_EQ(d.mode, SafetyMode::kLanded);
+  EXPECT_TRUE(d.motors_off);
+  EXPECT_NEAR(d.reference.p_world.z(), 0.0, 1e-12);  // the mission's landing point
+}
+
 TEST(SafetySupervisor, NonFiniteEstimateIsAFailure) {
   SafetySupervisor s;
   VehicleStateEstimate e;

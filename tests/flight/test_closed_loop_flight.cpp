@@ -122,6 +122,27 @@ TEST(ClosedLoopFlight, HoversInTheRealisticWorld) {
   EXPECT_LT(r.rms_estimate_m(), 0.10);
 }
 
+TEST(ClosedLoopFlight, TakesOffFromTheFloorAndLandsGently) {
+  // The mission's take-off and landing without the waypoints between: up 0.7 m and down.
+  Scenario s = scenario("mission");
+  const Eigen::Vector3d ground = s.start_world;
+  const Eigen::Vector3d up = ground + Eigen::Vector3d(0.0, 0.0, 0.7);
+  s.path = WaypointPath({ground, up, ground}, 0.0, 0.5, 0.5, 1.0);
+  const double end = s.path.end_time_s();
+  FlightSimulation simulation(s, small_options());
+  const FlightResult r = simulation.run(end + 2.0);
+  EXPECT_FALSE(r.crashed);
+  double top = 0.0;
+  for (const FlightSample& f : r.samples) top = std::max(top, f.p_true.z());
+  EXPECT_GT(top, up.z() - 0.1);
+  // Standing on the floor again, not hopping: the last second stays on the ground height.
+  for (const FlightSample& f : r.samples) {
+    if (f.t_s > end + 1.0) {
+      EXPECT_NEAR(f.p_true.z(), ground.z(), 0.01) << "t=" << f.t_s;
+    }
+  }
+}
+
 TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   FlightSimulation simulation(scenario("hover"), small_options());
   const FlightResult r = simulation.run(0.5);

@@ -10,6 +10,8 @@
 #include "kestrel/core/error.hpp"
 #include "kestrel/sensor/pattern.hpp"
 #include "kestrel/sim/projector_light.hpp"
+#include "kestrel/sim/scenes.hpp"
+#include "kestrel/sim/smooth_trajectory.hpp"
 
 namespace kestrel::sim {
 namespace {
@@ -160,6 +162,49 @@ TEST(Projector, SameSeedGivesIdenticalImages) {
   EXPECT_EQ(cv::norm(a.left.color_bgr, b.left.color_bgr, cv::NORM_INF), 0.0);
   EXPECT_EQ(cv::norm(a.right.color_bgr, b.right.color_bgr, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(a.left.color_bgr, c.left.color_bgr, cv::NORM_INF), 0.0);
+}
+
+// The left view without the rig lights, shaded in the same pass as the lit pair, is exactly
+// the frame a separate renderer of the scene without the projector gives (with the same noise
+// seed): the flight's tracking view costs no second render.
+TEST(Projector, ViewWithoutRigLightsEqualsASeparateRender) {
+  const Scene office = make_scene("office");
+  ProjectorOptions o = small_projector();
+  o.shadows = false;
+  sensor::PatternOptions po;
+  po.width = o.width;
+  po.height = o.height;
+  po.lines = 40;
+  auto projector = std::make_shared<ProjectorLight>(SE3(), sensor::generate_pattern(po, 3), o);
+  RenderOptions render;
+  render.noise.intensity_sigma = 2.0;
+  const RectifiedStereo rig = small_rig();
+  StereoRenderer pair(rig, render, 11);
+  pair.add_rig_light(projector);
+  pair.reseed_left_without_rig_lights(99);
+  Renderer separate(rig.left(), render, 99);
+  // The projector as the scene's last light: the pair before the rig-light path existed.
+  StereoRenderer scene_lit(rig, render, 11);
+  const Scene lit_office =
+      scene_with_projector(office, projector, ProjectorMode::kAmbientAndPattern);
+  StereoFrame frame, reference;
+  RenderedFrame unlit, expected;
+  for (int k = 0; k < 3; ++k) {  // the noise streams stay in step over frames
+    const SE3 T_world_left =
+        office.T_world_start() *
+        SE3(SO3::exp(Eigen::Vector3d(0.0, 0.0, 0.1 * k)), Eigen::Vector3d(0.1 * k, 0.0, 0.0)) *
+        forward_camera_mount();
+    projector->set_pose(T_world_left * o.T_left_projector);
+    pair.render(office, T_world_left, frame, &unlit);
+    separate.render(office, T_world_left, expected);
+    scene_lit.render(lit_office, T_world_left, reference);
+    EXPECT_EQ(cv::norm(unlit.color_bgr, expected.color_bgr, cv::NORM_INF), 0.0) << k;
+    EXPECT_EQ(cv::norm(unlit.gray, expected.gray, cv::NORM_INF), 0.0) << k;
+    EXPECT_EQ(cv::norm(frame.left.color_bgr, reference.left.color_bgr, cv::NORM_INF), 0.0) << k;
+    EXPECT_EQ(cv::norm(frame.right.color_bgr, reference.right.color_bgr, cv::NORM_INF), 0.0) << k;
+    // And the pattern is there in the lit view only.
+    EXPECT_GT(cv::norm(frame.left.gray, unlit.gray, cv::NORM_L1) / unlit.gray.total(), 1.0) << k;
+  }
 }
 
 TEST(Projector, BadInput) {

@@ -72,6 +72,9 @@ struct SafetyDecision {
   std::string reason;  ///< why the mode is what it is (empty when nominal)
 };
 
+/// Besides the failure modes, the supervisor ends a mission that lands: after the vehicle has
+/// flown, a mission reference resting on the ground (below landed_height_m, still) with the
+/// estimate low and still for landed_hold_s switches the motors off (kLanded).
 class SafetySupervisor {
  public:
   explicit SafetySupervisor(SafetyOptions options = {});
@@ -94,6 +97,8 @@ class SafetySupervisor {
   PositionReference hold_;
   double landing_start_z_ = 0.0;
   std::optional<TimeNs> low_since_ns_;
+  bool airborne_ = false;  // has been above 2 landed_height_m: a touchdown can end the flight
+  std::optional<TimeNs> touchdown_since_ns_;
   double blind_thrust_N_ = 0.0;
 };
 

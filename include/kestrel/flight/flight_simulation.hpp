@@ -107,7 +107,9 @@ struct FlightResult {
   bool interrupted = false;  ///< stopped early by the stop flag; duration_s is what was flown
   std::string final_mode;
   /// RMS of |p_true - p_ref| over the samples at t >= settle_s (the tracking figure of
-  /// docs/flight.md; while the supervisor holds or lands, its reference counts).
+  /// docs/flight.md; while the supervisor holds or lands, its reference counts). Samples after
+  /// the motors are off (landed) are not flight and do not count: the estimate of a vehicle
+  /// standing on the floor after a touchdown is not used any more.
   [[nodiscard]] double rms_tracking_m() const;
   /// RMS of |p_est - p_true| over the same samples.
   [[nodiscard]] double rms_estimate_m() const;

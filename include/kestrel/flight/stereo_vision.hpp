@@ -111,11 +111,10 @@ class StereoVision {
   StereoVisionOptions options_;
   RectifiedStereo rig_;
   std::shared_ptr<sim::ProjectorLight> projector_;
-  sim::Scene lit_scene_;
+  bool tracking_view_;    // the odometry tracks the left view without the pattern
+  sim::Scene lit_scene_;  // with the projector, unless it is the renderer's rig light
   sim::StereoRenderer renderer_;
-  std::optional<sim::Renderer> tracking_renderer_;  // the left view without the pattern
-  sim::Scene scene_;                                // unlit by the projector
-  sim::RenderedFrame tracking_frame_;
+  sim::RenderedFrame tracking_frame_;  // the left view without the pattern
   sensor::StereoFrontEnd front_end_;
   odometry::DirectTracker tracker_;
   sim::StereoFrame frame_;

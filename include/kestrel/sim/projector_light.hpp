@@ -60,6 +60,8 @@ class ProjectorLight final : public LightSource {
 
   [[nodiscard]] ColorBgr illuminate(const SurfacePoint& point,
                                     const ShadingContext& context) const override;
+  void accumulate(std::span<const SurfacePoint> points, std::span<ColorBgr> irradiance,
+                  const ShadingContext& context) const override;
   [[nodiscard]] std::string describe() const override;
 
   [[nodiscard]] const SE3& T_world_projector() const { return T_world_projector_; }
@@ -71,6 +73,10 @@ class ProjectorLight final : public LightSource {
   [[nodiscard]] const cv::Mat& pattern() const { return pattern_; }
 
  private:
+  [[nodiscard]] ColorBgr irradiance(const SurfacePoint& point, const ShadingContext& context) const;
+  /// The blurred pattern, bilinear, at projector pixel (u, v) inside [-0.5, size - 0.5].
+  [[nodiscard]] cv::Vec3f pattern_at(double u, double v) const;
+
   SE3 T_world_projector_;
   SE3 T_projector_world_;
   ProjectorOptions options_;

@@ -81,9 +81,17 @@ class Renderer {
   void add_rig_light(std::shared_ptr<const LightSource> light);
   /// Restarts the noise generator.
   void reseed(std::uint64_t seed) { noise_.reseed(seed); }
+  /// Restarts the noise generator of the view without the rig lights (render()'s
+  /// `without_rig_lights`; seeded with the renderer's seed + 1 until then).
+  void reseed_without_rig_lights(std::uint64_t seed) { rig_free_noise_.reseed(seed); }
 
   /// Renders the scene seen from T_world_cam (the optical frame: x right, y down, z forward).
-  void render(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame);
+  /// With `without_rig_lights`, the same pass also gives the view lit by the scene's lights
+  /// only (what a camera blind to the rig's projector takes: the flight's tracking view), with
+  /// its own noise generator: exactly the frame a renderer without the rig lights would give,
+  /// for the cost of one multiply per pixel and the noise instead of a second render.
+  void render(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame,
+              RenderedFrame* without_rig_lights = nullptr);
   [[nodiscard]] RenderedFrame render(const Scene& scene, const SE3& T_world_cam);
 
   /// Depth of the last render before noise (CV_32F, kNoDepth where nothing was hit).
@@ -110,25 +118,31 @@ class Renderer {
  private:
   void setup_faces(const Scene& scene, const SE3& T_world_cam);
   void rasterize();
-  void shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame);
+  void shade(const Scene& scene, const SE3& T_world_cam, RenderedFrame& frame,
+             RenderedFrame* without_rig_lights);
   // The steps of shade(), with one frame's shading constants (renderer.cpp).
   struct Shading;
   void shade_pixel_centres(const Shading& shading);
   void shade_edge_pixels(const Shading& shading);
   /// The k x k supersampled colour of edge pixel (u, v), among the faces around it.
+  /// The k x k supersampled colour of edge pixel (u, v), among the faces around it; the
+  /// colour without the rig lights in `rig_free` when the shading asks for it.
   [[nodiscard]] ColorBgr supersample_pixel(const Shading& shading, int u, int v,
                                            std::span<const int> faces,
-                                           std::span<ColorBgr> sample_color);
-  void write_frame(RenderedFrame& frame);
+                                           std::span<ColorBgr> sample_color, ColorBgr& rig_free);
+  /// Sensor noise on `radiance` (from `noise`), then the output images.
+  void write_frame(cv::Mat& radiance, SensorNoise& noise, RenderedFrame& frame);
 
   PinholeCamera camera_;
   RenderOptions options_;
   SensorNoise noise_;
+  SensorNoise rig_free_noise_;  // the view without the rig lights
   std::vector<std::shared_ptr<const LightSource>> rig_lights_;
   std::vector<FaceSetup> setups_;
   std::vector<double> inv_depth_;  // 1/Z of the nearest face per pixel, 0 = none
   std::vector<int> face_id_;       // nearest face per pixel, -1 = none
   cv::Mat radiance_;               // CV_32FC3, linear colour
+  cv::Mat rig_free_radiance_;      // the same without the rig lights, when asked for
   cv::Mat exact_depth_;
   cv::Mat cos_incidence_;
   std::vector<SurfacePoint> row_points_;  // lit points of one row, for the lights
@@ -159,7 +173,12 @@ class StereoRenderer {
   /// A light on the rig (both views see it).
   void add_rig_light(const std::shared_ptr<const LightSource>& light);
 
-  void render(const Scene& scene, const SE3& T_world_left, StereoFrame& frame);
+  /// With `left_without_rig_lights`, the left renderer also gives its view without the rig
+  /// lights (Renderer::render()).
+  void render(const Scene& scene, const SE3& T_world_left, StereoFrame& frame,
+              RenderedFrame* left_without_rig_lights = nullptr);
+  /// Seeds the noise of the left view without the rig lights.
+  void reseed_left_without_rig_lights(std::uint64_t seed) { left_.reseed_without_rig_lights(seed); }
   [[nodiscard]] const Renderer& left_renderer() const { return left_; }
   [[nodiscard]] const Renderer& right_renderer() const { return right_; }
 

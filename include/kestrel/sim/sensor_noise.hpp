@@ -1,6 +1,6 @@
 // Sensor noise for rendered frames: Kinect-like depth noise that grows with Z^2, depth
 // quantisation in disparity, missing depth (random, grazing angles, out of range) and Gaussian
-// intensity noise. Everything is off by default and drawn from a seeded std::mt19937_64.
+// intensity noise. Everything is off by default and drawn from a seeded xoshiro256++.
 #pragma once
 
 #include <cstdint>
@@ -82,6 +82,43 @@ struct SensorNoiseOptions {
   void validate() const;
 };
 
+/// xoshiro256++ (Blackman and Vigna, "Scrambled linear pseudorandom number generators", ACM
+/// TOMS 47(4), 2021): 256 bits of state, period 2^256 - 1, passes BigCrush; several times
+/// faster than std::mt19937_64, which matters at three noisy views of 90k pixels x 3 channels
+/// per 30 Hz frame. Seeded through splitmix64, as its authors advise. A standard
+/// UniformRandomBitGenerator.
+class Xoshiro256pp {
+ public:
+  using result_type = std::uint64_t;
+  explicit Xoshiro256pp(std::uint64_t seed = 1) { this->seed(seed); }
+  void seed(std::uint64_t seed) {
+    for (std::uint64_t& word : s_) {
+      seed += 0x9E3779B97F4A7C15ULL;  // splitmix64
+      std::uint64_t z = seed;
+      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+      z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+      word = z ^ (z >> 31);
+    }
+  }
+  static constexpr result_type min() { return 0; }
+  static constexpr result_type max() { return ~result_type{0}; }
+  result_type operator()() {
+    const std::uint64_t result = rotl(s_[0] + s_[3], 23) + s_[0];
+    const std::uint64_t t = s_[1] << 17;
+    s_[2] ^= s_[0];
+    s_[3] ^= s_[1];
+    s_[1] ^= s_[2];
+    s_[0] ^= s_[3];
+    s_[2] ^= t;
+    s_[3] = rotl(s_[3], 45);
+    return result;
+  }
+
+ private:
+  static std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+  std::uint64_t s_[4]{};
+};
+
 /// Applies SensorNoiseOptions to rendered buffers, drawing from its own generator: the same
 /// seed and the same sequence of calls give the same noise.
 class SensorNoise {
@@ -99,7 +136,7 @@ class SensorNoise {
 
  private:
   SensorNoiseOptions options_;
-  std::mt19937_64 rng_;
+  Xoshiro256pp rng_;
 };
 
 }  // namespace kestrel::sim
