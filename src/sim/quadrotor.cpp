@@ -79,6 +79,9 @@ void QuadrotorParameters::validate() const {
     nonneg("quadratic_drag_N_s2_m2", quadratic_drag_N_s2_m2[i]);
   }
   nonneg("angular_drag_N_m_s", angular_drag_N_m_s);
+  if (!(std::isfinite(touchdown_time_s) && touchdown_time_s > 0.0 && touchdown_time_s <= 1.0)) {
+    fail("touchdown_time_s", "must be in (0, 1] s");
+  }
   for (int i = 0; i < 3; ++i) {
     if (!(std::isfinite(center_of_mass_offset_m[i]) &&
           std::abs(center_of_mass_offset_m[i]) < 0.5 * arm_length_m)) {
@@ -201,6 +204,7 @@ void Quadrotor::integrate(double h, const Eigen::Vector4d& command) {
       state_.rotor_speed_rad_s = x.rotors;
       state_.a_world.setZero();
       state_.alpha_body.setZero();
+      release_touchdown(h);
       return;
     }
     state_.on_ground = false;
@@ -227,6 +231,27 @@ void Quadrotor::integrate(double h, const Eigen::Vector4d& command) {
   state_.a_world = end.v_dot;
   state_.alpha_body = end.w_dot;
   resolve_ground_contact();
+  release_touchdown(h);
+}
+
+void Quadrotor::release_touchdown(double h) {
+  state_.contact_accel_world.setZero();
+  state_.contact_rate_body.setZero();
+  if (touchdown_dv_world_.isZero() && touchdown_rotation_world_.isZero()) return;
+  // First order through the legs: the share 1 - e^(-h/T) of what is left reaches the IMU in
+  // this step, as a mean acceleration and a mean rate over it.
+  const double share = 1.0 - std::exp(-h / parameters_.touchdown_time_s);
+  const Eigen::Vector3d dv = share * touchdown_dv_world_;
+  const Eigen::Vector3d dr = share * touchdown_rotation_world_;
+  touchdown_dv_world_ -= dv;
+  touchdown_rotation_world_ -= dr;
+  state_.contact_accel_world = dv / h;
+  state_.contact_rate_body = state_.R_world_body.inverse() * (dr / h);
+  // Done once below what an IMU resolves (1e-6 m/s, 1e-6 rad).
+  if (touchdown_dv_world_.norm() < 1e-6 && touchdown_rotation_world_.norm() < 1e-6) {
+    touchdown_dv_world_.setZero();
+    touchdown_rotation_world_.setZero();
+  }
 }
 
 void Quadrotor::resolve_ground_contact() {
@@ -240,10 +265,16 @@ void Quadrotor::resolve_ground_contact() {
   // Settle on the floor, level, keeping the heading.
   const Eigen::Vector3d x_axis = state_.R_world_body * Eigen::Vector3d::UnitX();
   const double yaw = std::atan2(x_axis.y(), x_axis.x());
+  const SO3 R_level = SO3::exp(Eigen::Vector3d(0.0, 0.0, yaw));
+  // What the settling changed, for the IMU to feel through the legs (release_touchdown): the
+  // velocity lost and the levelling rotation (world frame). The body rate it also stops is
+  // part of the rotation it would have made, so it is not added again.
+  touchdown_dv_world_ -= state_.v_world;
+  touchdown_rotation_world_ += (R_level * state_.R_world_body.inverse()).log();
   state_.p_world.z() = P.ground_z_m;
   state_.v_world.setZero();
   state_.omega_body.setZero();
-  state_.R_world_body = SO3::exp(Eigen::Vector3d(0.0, 0.0, yaw));
+  state_.R_world_body = R_level;
   state_.a_world.setZero();
   state_.alpha_body.setZero();
   state_.on_ground = true;

@@ -40,11 +40,13 @@ io::ImuSample VehicleImuSimulator::ideal_sample(const QuadrotorState& s,
   const SO3 R_body_imu = noise_.T_body_imu.so3();
   const Eigen::Vector3d r = noise_.T_body_imu.translation();  // lever arm in the body
   const Eigen::Vector3d g_world(0.0, 0.0, -gravity_m_s2);
-  const Eigen::Vector3d f_body = s.R_world_body.inverse() * (s.a_world - g_world) +
-                                 s.alpha_body.cross(r) + s.omega_body.cross(s.omega_body.cross(r));
+  // The landing gear's share of a touchdown (zero in flight) is felt like any acceleration.
+  const Eigen::Vector3d f_body =
+      s.R_world_body.inverse() * (s.a_world + s.contact_accel_world - g_world) +
+      s.alpha_body.cross(r) + s.omega_body.cross(s.omega_body.cross(r));
   io::ImuSample out;
   out.t_ns = s.t_ns;
-  out.gyro_rad_s = R_body_imu.inverse() * s.omega_body;
+  out.gyro_rad_s = R_body_imu.inverse() * (s.omega_body + s.contact_rate_body);
   out.accel_m_s2 = R_body_imu.inverse() * f_body;
   return out;
 }

@@ -121,5 +121,46 @@ TEST(Quadrotor, MotorLagIsFirstOrder) {
   EXPECT_NEAR((q.state().rotor_speed_rad_s[0] - w0) / 100.0, 1.0 - std::exp(-1.0), 1e-6);
 }
 
+// A touchdown settles the vehicle in one step, but what an IMU would feel is spread over the
+// landing gear's touchdown_time_s: the world-frame accelerations it reports add up to the
+// velocity the touchdown removed, the body rates to the levelling rotation, and the peak stays
+// inside a 16 g accelerometer's range.
+TEST(Quadrotor, TheImuFeelsATouchdownThroughTheLegs) {
+  QuadrotorParameters p;
+  QuadrotorState s;
+  s.p_world = {0, 0, 0.0005};
+  s.v_world = {0.2, -0.1, -0.5};
+  s.R_world_body = SO3::exp(Eigen::Vector3d(0.06, -0.04, 0.3));  // ~4 deg of tilt, yaw 0.3
+  Quadrotor q(p, s);
+  Eigen::Vector3d felt_dv = Eigen::Vector3d::Zero();
+  Eigen::Vector3d felt_rotation = Eigen::Vector3d::Zero();
+  double peak = 0.0;
+  bool touched = false;
+  const double h = 0.001;
+  for (int i = 0; i < 300; ++i) {  // 15 time constants
+    q.step(h, Eigen::Vector4d::Zero());
+    const QuadrotorState& now = q.state();
+    touched = touched || now.on_ground;
+    // Before the touchdown: free fall (a_world = -g); after it: at rest (a_world = 0).
+    felt_dv += (now.a_world + now.contact_accel_world) * h;
+    felt_rotation += now.R_world_body * now.contact_rate_body * h;
+    peak = std::max(peak, now.contact_accel_world.norm());
+  }
+  ASSERT_TRUE(touched);
+  EXPECT_FALSE(q.state().crashed);
+  // Velocity: from s.v_world (plus the first step's fall) to rest.
+  const Eigen::Vector3d removed = -s.v_world + Eigen::Vector3d(0, 0, p.gravity_m_s2 * h);
+  EXPECT_LT((felt_dv - (-s.v_world)).norm(), 0.01 * removed.norm() + p.gravity_m_s2 * h);
+  // Rotation: the tilt only (the heading is kept).
+  const Eigen::Vector3d levelling =
+      (q.state().R_world_body * s.R_world_body.inverse()).log();
+  EXPECT_LT((felt_rotation - levelling).norm(), 0.01 * levelling.norm() + 1e-4);
+  EXPECT_GT(levelling.norm(), 0.06);
+  EXPECT_LT(peak, 16.0 * 9.81);
+  EXPECT_GT(peak, 0.5 * removed.norm() / p.touchdown_time_s);  // felt, not lost
+  // All of it released: nothing left after the gear has settled.
+  EXPECT_EQ(q.state().contact_accel_world.norm(), 0.0);
+}
+
 }  // namespace
 }  // namespace kestrel::sim

@@ -42,6 +42,11 @@ struct QuadrotorParameters {
   Eigen::Vector3d center_of_mass_offset_m = Eigen::Vector3d::Zero();
   double ground_z_m = 0.0;  ///< the floor plane
   /// A touchdown faster than this, or with more tilt, is a crash.
+  /// The landing gear's compression: the contact itself is resolved in one step (the vehicle
+  /// stops and settles level at once), but the IMU feels the touchdown's velocity change and
+  /// levelling rotation spread over about this time, as through real legs (a 0.5 m/s touchdown:
+  /// ~25 m/s^2 at its peak, inside an IMU's range; in one 1 ms step it would read 500).
+  double touchdown_time_s = 0.02;
   double crash_speed_m_s = 2.0;
   double crash_tilt_deg = 60.0;
   double gravity_m_s2 = 9.81;
@@ -77,6 +82,7 @@ struct QuadrotorParameters {
     v("angular_drag_N_m_s", angular_drag_N_m_s);
     v("center_of_mass_offset_m", center_of_mass_offset_m);
     v("ground_z_m", ground_z_m);
+    v("touchdown_time_s", touchdown_time_s);
     v("crash_speed_m_s", crash_speed_m_s);
     v("crash_tilt_deg", crash_tilt_deg);
     v("gravity_m_s2", gravity_m_s2);
@@ -95,6 +101,11 @@ struct QuadrotorState {
   Eigen::Vector4d rotor_speed_rad_s = Eigen::Vector4d::Zero();
   Eigen::Vector3d a_world = Eigen::Vector3d::Zero();
   Eigen::Vector3d alpha_body = Eigen::Vector3d::Zero();
+  /// What the landing gear adds to an IMU's readings after a touchdown (world-frame
+  /// acceleration, body rate; zero otherwise): QuadrotorParameters::touchdown_time_s. Not part
+  /// of the dynamics, which settled the contact at once.
+  Eigen::Vector3d contact_accel_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d contact_rate_body = Eigen::Vector3d::Zero();
   bool on_ground = false;
   bool crashed = false;              ///< latched: a hard touchdown happened
   double touchdown_speed_m_s = 0.0;  ///< speed at the last touchdown
@@ -131,10 +142,14 @@ class Quadrotor {
  private:
   void integrate(double h, const Eigen::Vector4d& command);
   void resolve_ground_contact();
+  void release_touchdown(double h);
 
   QuadrotorParameters parameters_;
   QuadrotorState state_;
   Eigen::Vector3d external_force_world_ = Eigen::Vector3d::Zero();
+  // A touchdown's velocity change and levelling rotation (world frame) not yet felt by the IMU.
+  Eigen::Vector3d touchdown_dv_world_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d touchdown_rotation_world_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d wind_world_ = Eigen::Vector3d::Zero();
 };
 
