@@ -43,7 +43,8 @@ void run_fly(const FlyArgs& a) {
   if (a.list) {
     std::cout << "scenarios (--scenario):\n";
     for (const auto& e : flight::scenario_catalogue()) {
-      std::cout << "  " << std::left << std::setw(10) << e.name << e.description << "\n";
+      std::cout << "  " << std::left << std::setw(10) << e.name << e.description << " ("
+                << flight::make_scenario(e.name, SE3()).default_duration_s << " s)\n";
     }
     return;
   }
@@ -167,10 +168,11 @@ void add_fly_command(CLI::App& app) {
       "fly",
       "Fly a closed loop in simulation: render -> active stereo -> odometry -> EKF -> "
       "controller -> PWM -> flight controller -> dynamics");
-  cmd->add_option("--scenario", args->scenario, "hover, square or corridor (see --list)")
+  cmd->add_option("--scenario", args->scenario,
+                  sim::catalogue_names(flight::scenario_catalogue()) + " (see --list)")
       ->capture_default_str();
   cmd->add_option("--duration", args->duration_s,
-                  "Simulated seconds (default: the scenario's: hover 60, square 28, corridor 32)")
+                  "Simulated seconds (default: the scenario's own, see --list)")
       ->check(number_in(0.0, 3600.0, "a duration in (0, 3600] s", true));
   cmd->add_option("--seed", args->seed, "Seed of every random part (IMU, noise, pattern)")
       ->capture_default_str()

@@ -12,7 +12,7 @@ namespace kestrel::flight {
 namespace {
 
 const std::vector<sim::CatalogueEntry> kScenarios = {
-    {"hover", "hold the start pose in the office (60 s): the thesis' position-hold experiment"},
+    {"hover", "hold the start pose in the office: the thesis' position-hold experiment"},
     {"square", "a 2 m square in the office at 0.5 m/s cruise, stopping at each corner, facing +x"},
     {"corridor",
      "6 m down the low-texture corridor and back at 0.5 m/s: only the projector's pattern "
