@@ -82,9 +82,10 @@ HWY_INLINE std::uint16_t least_lane(D d, hn::Vec<D> v) {
 #endif
 }
 
-// Eq. 13 on N lanes, given the previous pixel's costs at d, d - 1 and d + 1.
-HWY_INLINE V16 path_lanes(V16 at, V16 below, V16 above, V16 prev_min, V16 jump, V16 p1, V16 cost) {
-  const V16 t = hn::Min(hn::Min(at, hn::SaturatedAdd(hn::Min(below, above), p1)), jump);
+// Eq. 13 on N lanes (uint16 or uint8), given the previous pixel's costs at d, d - 1, d + 1.
+template <class V>
+HWY_INLINE V path_lanes(V at, V below, V above, V prev_min, V jump, V p1, V cost) {
+  const V t = hn::Min(hn::Min(at, hn::SaturatedAdd(hn::Min(below, above), p1)), jump);
   return hn::SaturatedAdd(cost, hn::Sub(t, prev_min));
 }
 
@@ -251,6 +252,168 @@ void AggregateRow(const AggregateRowArgs& a) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// The same recursion in uint8 path costs: a vector holds twice the disparities, so the
+// recursion takes half the operations; the sums stay uint16 (each path's costs widened once).
+// Exact as long as every real path cost stays <= 254 (the caller's condition, sgm_kernels.hpp):
+// then min(L(d), L(d +- 1) + P1, min L + P2) is the same whether the two sums saturate at 255
+// or not (it is at most L(d) <= 254), and 0xFF marks the masked lanes as 0xFFFF does.
+
+#if HWY_TARGET != HWY_SCALAR
+// rotate_blocks / shift_up / shift_down for any lane type and vector width.
+template <class D>
+HWY_INLINE hn::Vec<D> rotate_blocks_of(D d, hn::Vec<D> v, bool up) {
+  const hn::Repartition<std::uint64_t, D> d64;
+  const hn::RebindToSigned<decltype(d64)> di64;
+  const auto n64 = static_cast<std::int64_t>(hn::Lanes(d64));
+  const auto idx = hn::And(hn::Iota(di64, up ? n64 - 2 : 2), hn::Set(di64, n64 - 1));
+  return hn::BitCast(d, hn::TableLookupLanes(hn::BitCast(d64, v), hn::IndicesFromVec(d64, idx)));
+}
+
+template <class D>
+HWY_INLINE hn::Vec<D> shift_up_of(D d, hn::Vec<D> v, hn::Vec<D> before) {
+  constexpr int kSize = sizeof(hn::TFromD<D>);
+  const auto previous_blocks = hn::IfThenElse(
+      hn::FirstN(d, 16 / kSize), rotate_blocks_of(d, before, true), rotate_blocks_of(d, v, true));
+  return hn::CombineShiftRightBytes<16 - kSize>(d, v, previous_blocks);
+}
+
+template <class D>
+HWY_INLINE hn::Vec<D> shift_down_of(D d, hn::Vec<D> v, hn::Vec<D> after) {
+  constexpr int kSize = sizeof(hn::TFromD<D>);
+  const auto next_blocks =
+      hn::IfThenElse(hn::FirstN(d, hn::Lanes(d) - 16 / kSize), rotate_blocks_of(d, v, false),
+                     rotate_blocks_of(d, after, false));
+  return hn::CombineShiftRightBytes<kSize>(d, next_blocks, v);
+}
+
+// The least lane of uint8 lanes: halves folded to 128 bits, then widened for least_lane.
+template <class D>
+HWY_INLINE std::uint16_t least_lane8(D d, hn::Vec<D> v) {
+  if constexpr (hn::MaxLanes(D()) > 16) {
+    const hn::Half<D> dh;
+    return least_lane8(dh, hn::Min(hn::LowerHalf(dh, v), hn::UpperHalf(dh, v)));
+  } else {
+    const hn::Repartition<std::uint16_t, D> dw;
+    const hn::Half<D> dh;
+    return least_lane(dw, hn::Min(hn::PromoteTo(dw, hn::LowerHalf(dh, v)),
+                                  hn::PromoteTo(dw, hn::UpperHalf(dh, v))));
+  }
+}
+
+// PixelPaths in uint8 lanes.
+template <class D8, int NP>
+struct PixelPaths8 {
+  const std::uint8_t* prev[NP];
+  std::uint8_t* out[NP];
+  hn::Vec<D8> prev_min[NP], jump[NP], least[NP];
+
+  HWY_INLINE void set(int r, const std::uint8_t* from, std::uint16_t from_min, std::uint16_t p2,
+                      std::uint8_t* to) {
+    const D8 d;
+    prev[r] = from;
+    out[r] = to;
+    prev_min[r] = hn::Set(d, static_cast<std::uint8_t>(std::min<std::uint16_t>(from_min, 0xFF)));
+    jump[r] = hn::SaturatedAdd(prev_min[r], hn::Set(d, static_cast<std::uint8_t>(p2)));
+    least[r] = hn::Set(d, std::uint8_t{0xFF});
+  }
+};
+
+template <class D8, int NV>
+HWY_INLINE std::uint16_t pixel_paths8(const AggregateRowArgs& a, int x,
+                                      PixelPaths8<D8, NV + 1>& p) {
+  const D8 d8;
+  const hn::Repartition<std::uint16_t, D8> dw;  // the same bytes as uint16: half the lanes
+  const hn::Half<D8> dh;
+  using V8 = hn::Vec<D8>;
+  const int n = static_cast<int>(hn::Lanes(d8)), nw = n / 2;
+  const V8 p1 = hn::Set(d8, static_cast<std::uint8_t>(a.p1));
+  const V8 masked = hn::Set(d8, std::uint8_t{0xFF});
+  const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(x) * a.lanes;
+  for (int k = 0; k < a.lanes; k += n) {
+    // The costs' low bytes: real costs are <= 32 and masked 0xFFFF becomes 0xFF.
+    const std::uint16_t* c = a.cost + base + k;
+    const V8 cost = hn::ConcatEven(d8, hn::BitCast(d8, hn::LoadU(dw, c + nw)),
+                                   hn::BitCast(d8, hn::LoadU(dw, c)));
+    const std::uint16_t* init = a.add ? a.add + base + k : a.pad_mask + k;
+    auto sum_lo = hn::LoadU(dw, init);
+    auto sum_hi = hn::LoadU(dw, init + nw);
+    for (int r = 0; r <= NV; ++r) {
+      const std::uint8_t* prev = p.prev[r] + k;
+      const V8 at = hn::LoadU(d8, prev);
+      V8 l;
+      if (r == 0) {  // the horizontal path: the neighbours shifted in registers (see above)
+        const V8 before = k > 0 ? hn::LoadU(d8, prev - n) : masked;
+        const V8 after = k + n < a.lanes ? hn::LoadU(d8, prev + n) : masked;
+        l = path_lanes(at, shift_up_of(d8, at, before), shift_down_of(d8, at, after), p.prev_min[0],
+                       p.jump[0], p1, cost);
+      } else {
+        l = path_lanes(at, hn::LoadU(d8, prev - 1), hn::LoadU(d8, prev + 1), p.prev_min[r],
+                       p.jump[r], p1, cost);
+      }
+      hn::StoreU(l, d8, p.out[r] + k);
+      p.least[r] = hn::Min(p.least[r], l);
+      sum_lo = hn::SaturatedAdd(sum_lo, hn::PromoteTo(dw, hn::LowerHalf(dh, l)));
+      sum_hi = hn::SaturatedAdd(sum_hi, hn::PromoteTo(dw, hn::UpperHalf(dh, l)));
+    }
+    hn::StoreU(sum_lo, dw, a.sum + base + k);
+    hn::StoreU(sum_hi, dw, a.sum + base + k + nw);
+  }
+  for (int r = 1; r <= NV; ++r) a.vertical[r - 1].cur_min[x + 1] = least_lane8(d8, p.least[r]);
+  return least_lane8(d8, p.least[0]);
+}
+
+template <class D8, int NV>
+void aggregate8(const AggregateRowArgs& args) {
+  const AggregateRowArgs a = args;  // a local copy, as in aggregate()
+  const int stride = a.lanes + kSgmGuard8;
+  const int x0 = a.step > 0 ? 0 : a.width - 1;
+  row_penalties<NV>(a, a.p2_scratch);
+  auto* const horizontal = reinterpret_cast<std::uint8_t*>(a.horizontal);
+  const std::uint8_t* h_prev = horizontal + kSgmGuard8;  // the masked slot
+  std::uint16_t h_min = 0xFF;
+  PixelPaths8<D8, NV + 1> p{};
+  for (int i = 0; i < a.width; ++i) {
+    const int x = x0 + i * a.step;
+    std::uint8_t* h_cur = horizontal + (1 + (i & 1)) * stride + kSgmGuard8;
+    p.set(0, h_prev, h_min, a.p2_scratch[x], h_cur);
+    for (int r = 0; r < NV; ++r) {
+      const PathRows& v = a.vertical[r];
+      const int slot = x + 1 + v.dx;
+      p.set(r + 1, reinterpret_cast<const std::uint8_t*>(v.prev) + slot * stride + kSgmGuard8,
+            v.prev_min[slot], a.p2_scratch[(r + 1) * a.width + x],
+            reinterpret_cast<std::uint8_t*>(v.cur) + (x + 1) * stride + kSgmGuard8);
+    }
+    h_min = pixel_paths8<D8, NV>(a, x, p);
+    h_prev = h_cur;
+  }
+}
+
+template <class D8>
+void aggregate8_paths(const AggregateRowArgs& a) {
+  if (a.num_vertical == 3) {
+    aggregate8<D8, 3>(a);
+  } else {
+    aggregate8<D8, 1>(a);
+  }
+}
+#endif
+
+void AggregateRow8(const AggregateRowArgs& a) {
+#if HWY_TARGET == HWY_SCALAR
+  AggregateRow(a);  // one lane: nothing to halve (the sums are the same)
+#else
+  using D8 = hn::ScalableTag<std::uint8_t>;
+  if (a.lanes % static_cast<int>(hn::Lanes(D8())) == 0) {
+    aggregate8_paths<D8>(a);
+  } else if constexpr (hn::MaxLanes(D8()) > kSgmMaxVectorLanes) {
+    aggregate8_paths<hn::Half<D8> >(a);  // AVX-512 (64 lanes) with lanes an odd multiple of 32
+  } else {
+    AggregateRow(a);  // not reached: lanes is a multiple of kSgmMaxVectorLanes
+  }
+#endif
+}
+
 // The winner of pixel x: least summed cost and its first lane.
 HWY_INLINE void winner(const DecideRowArgs& a, int x) {
   const D16 d;
@@ -310,6 +473,7 @@ namespace kestrel::sensor::sgm {
 HWY_EXPORT(CensusRow);
 HWY_EXPORT(CostRow);
 HWY_EXPORT(AggregateRow);
+HWY_EXPORT(AggregateRow8);
 HWY_EXPORT(DecideRow);
 HWY_EXPORT(TargetName);
 
@@ -317,11 +481,12 @@ namespace {
 void census_row(const CensusRowArgs& a) { HWY_DYNAMIC_DISPATCH(CensusRow)(a); }
 void cost_row(const CostRowArgs& a) { HWY_DYNAMIC_DISPATCH(CostRow)(a); }
 void aggregate_row(const AggregateRowArgs& a) { HWY_DYNAMIC_DISPATCH(AggregateRow)(a); }
+void aggregate_row8(const AggregateRowArgs& a) { HWY_DYNAMIC_DISPATCH(AggregateRow8)(a); }
 void decide_row(const DecideRowArgs& a) { HWY_DYNAMIC_DISPATCH(DecideRow)(a); }
 }  // namespace
 
 const Kernels& simd_kernels() {
-  static const Kernels k{census_row, cost_row, aggregate_row, decide_row};
+  static const Kernels k{census_row, cost_row, aggregate_row, aggregate_row8, decide_row};
   return k;
 }
 

@@ -105,7 +105,7 @@ void decide_row(const DecideRowArgs& a) {
 }  // namespace
 
 const Kernels& reference_kernels() {
-  static const Kernels k{census_row, cost_row, aggregate_row, decide_row};
+  static const Kernels k{census_row, cost_row, aggregate_row, nullptr, decide_row};
   return k;
 }
 

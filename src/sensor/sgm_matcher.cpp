@@ -6,8 +6,6 @@
 // large buffer is the top-down sums. The row kernels are in sgm_kernels.hpp.
 #include "kestrel/sensor/sgm_matcher.hpp"
 
-#include "grey_input.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
@@ -15,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "grey_input.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
@@ -120,6 +119,13 @@ SgmMatcher::SgmMatcher(SgmOptions options) : options_(options) { options_.valida
 const char* SgmMatcher::simd_target() { return sgm::simd_target(); }
 std::vector<std::int64_t> SgmMatcher::simd_targets() { return sgm::simd_targets(); }
 
+bool SgmMatcher::runs_8bit_paths() const {
+  // Every path cost is at most the largest matching cost (the census bits; the neutral cost is
+  // half of them) plus the largest P2 (p2_lut's entries are at most max(p1, p2) = p2).
+  return allow_8bit_ && !reference_ && sgm::simd_kernels().aggregate_row8 != nullptr &&
+         options_.census_bits() + options_.p2 <= sgm::kSgmMax8BitCostPlusP2;
+}
+
 void SgmMatcher::prepare(int width, int height) {
   if (width == width_ && height == height_) return;
   width_ = width;
@@ -220,12 +226,14 @@ void SgmMatcher::cost_row(int y) {
 // row into `disparity`).
 void SgmMatcher::pass(int dir, cv::Mat& disparity) {
   rows_.fill(kSgmMaskedCost);
+  horizontal_.fill(kSgmMaskedCost);  // its guards may hold the other recursion's costs
   std::fill(row_min_.begin(), row_min_.end(), kSgmMaskedCost);
   const std::size_t slots = static_cast<std::size_t>(width_ + 2) * (lanes_ + kSgmGuard);
   const std::size_t mins = static_cast<std::size_t>(width_ + 2);
   const int num_vertical = options_.paths == 8 ? 3 : 1;
   const int dxs[3] = {num_vertical == 3 ? -1 : 0, 0, 1};
   const sgm::Kernels& k = reference_ ? sgm::reference_kernels() : sgm::simd_kernels();
+  const auto aggregate_row = runs_8bit_paths() ? k.aggregate_row8 : k.aggregate_row;
   const std::size_t plane = static_cast<std::size_t>(width_) * lanes_;
   for (int i = 0; i < height_; ++i) {
     const int y = dir > 0 ? i : height_ - 1 - i;
@@ -247,11 +255,12 @@ void SgmMatcher::pass(int dir, cv::Mat& disparity) {
     a.image_prev = left_.ptr<std::uint8_t>(i == 0 ? y : y - dir);
     a.p2_lut = p2_lut_.data();
     a.p2_scratch = p2_row_.data();
+    a.pad_mask = pad_mask_.data();
     a.p1 = static_cast<std::uint16_t>(options_.p1);
     a.width = width_;
     a.lanes = lanes_;
     a.step = dir;
-    k.aggregate_row(a);
+    aggregate_row(a);
     if (dir < 0) decide_row(y, disparity.ptr<float>(y));
   }
 }
