@@ -85,8 +85,10 @@ struct AggregateRowArgs {
   int num_vertical = 0;                      ///< 1 (4 paths) or 3 (8 paths)
   const std::uint8_t* image = nullptr;       ///< this row of the left image
   const std::uint8_t* image_prev = nullptr;  ///< the previous row on the vertical paths
-  const std::uint16_t* p2_lut = nullptr;     ///< 256 entries, each >= p1
-  std::uint16_t* p2_scratch = nullptr;       ///< 4 x width: P2 per path and pixel (scratch)
+  /// P2 by intensity difference, each >= p1: p2_lut[-255..255] are readable (symmetric), so
+  /// that p2_lut[I(p) - I(q)] needs no absolute value.
+  const std::uint16_t* p2_lut = nullptr;
+  std::uint16_t* p2_scratch = nullptr;  ///< 4 x width: P2 per path and pixel (scratch)
   /// lanes entries, kSgmMaskedCost past the range: the 8-bit kernel's sums start there when
   /// `add` is null (its masked path costs are 0xFF, not 0xFFFF; the sums stay the same).
   const std::uint16_t* pad_mask = nullptr;

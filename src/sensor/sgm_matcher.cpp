@@ -253,7 +253,7 @@ void SgmMatcher::pass(int dir, cv::Mat& disparity) {
     }
     a.image = left_.ptr<std::uint8_t>(y);
     a.image_prev = left_.ptr<std::uint8_t>(i == 0 ? y : y - dir);
-    a.p2_lut = p2_lut_.data();
+    a.p2_lut = p2_lut_.data() + 255;
     a.p2_scratch = p2_row_.data();
     a.pad_mask = pad_mask_.data();
     a.p1 = static_cast<std::uint16_t>(options_.p1);
@@ -371,11 +371,13 @@ MatchStats SgmMatcher::match(const cv::Mat& left, const cv::Mat& right, cv::Mat&
   left_ = grey8(left, gray_l_, "left");
   const cv::Mat right_gray = grey8(right, gray_r_, "right");
   prepare(left.cols, left.rows);
-  p2_lut_.resize(256);
-  for (int di = 0; di < 256; ++di) {
+  p2_lut_.resize(511);  // P2 by intensity difference -255..255 (symmetric: the kernels index it
+  for (int di = 0; di < 256; ++di) {  // by the signed difference)
     const int g = options_.p2_gradient;
     const int p2 = g == 0 ? options_.p2 : options_.p2 * g / (g + di);
-    p2_lut_[static_cast<std::size_t>(di)] = static_cast<std::uint16_t>(std::max(options_.p1, p2));
+    const auto value = static_cast<std::uint16_t>(std::max(options_.p1, p2));
+    p2_lut_[static_cast<std::size_t>(255 + di)] = value;
+    p2_lut_[static_cast<std::size_t>(255 - di)] = value;
   }
   census(left_, census_l_lo_, census_l_hi_);
   census(right_gray, census_r_lo_, census_r_hi_);
