@@ -450,6 +450,10 @@ void DecideRow(const DecideRowArgs& a) {
   const D16 d;
   const int n = static_cast<int>(hn::Lanes(d));
   const V16 masked = hn::Set(d, kSgmMaskedCost);
+  if (a.right_min_rev == nullptr) {
+    for (int x = 0; x < a.width; ++x) winner(a, x);
+    return;
+  }
   std::uint16_t* window = a.right_min_rev + a.width;  // scratch: lanes entries past the row
   for (int k = 0; k < a.lanes; k += n) hn::StoreU(masked, d, window + k);
   for (int x = a.width - 1; x >= 0; --x) {

@@ -107,7 +107,7 @@ struct DecideRowArgs {
   int width = 0, lanes = 0;
   std::int32_t* best = nullptr;
   std::uint16_t* best_cost = nullptr;
-  std::uint16_t* right_min_rev = nullptr;
+  std::uint16_t* right_min_rev = nullptr;  ///< null: winners only (no left-right check)
 };
 
 /// The kernels of one implementation.

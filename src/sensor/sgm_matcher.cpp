@@ -293,7 +293,8 @@ void SgmMatcher::decide_row(int y, float* out) {
   a.lanes = lanes_;
   a.best = best_.data();
   a.best_cost = best_cost_.data();
-  a.right_min_rev = right_min_rev_.data();
+  // The right view's minima serve the left-right check only.
+  a.right_min_rev = options_.lr_max_diff >= 0 ? right_min_rev_.data() : nullptr;
   (reference_ ? sgm::reference_kernels() : sgm::simd_kernels()).decide_row(a);
   std::uint8_t* rejected = rejected_.data() + static_cast<std::size_t>(y) * width_;
   for (int x = 0; x < width_; ++x) {
