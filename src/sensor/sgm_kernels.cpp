@@ -364,8 +364,15 @@ HWY_INLINE std::uint16_t pixel_paths8(const AggregateRowArgs& a, int x,
       sum_lo = hn::SaturatedAdd(sum_lo, hn::PromoteTo(dw, hn::LowerHalf(dh, l)));
       sum_hi = hn::SaturatedAdd(sum_hi, hn::PromoteTo(dw, hn::UpperHalf(dh, l)));
     }
-    hn::StoreU(sum_lo, dw, a.sum + base + k);
-    hn::StoreU(sum_hi, dw, a.sum + base + k + nw);
+    if (a.add == nullptr) {
+      // The top-down sums are read a whole pass later: past the caches, written around them
+      // (no read for ownership). Aligned: the volume is, and lanes and k are multiples of n.
+      hn::Stream(sum_lo, dw, a.sum + base + k);
+      hn::Stream(sum_hi, dw, a.sum + base + k + nw);
+    } else {
+      hn::StoreU(sum_lo, dw, a.sum + base + k);
+      hn::StoreU(sum_hi, dw, a.sum + base + k + nw);
+    }
   }
   for (int r = 1; r <= NV; ++r) a.vertical[r - 1].cur_min[x + 1] = least_lane8(d8, p.least[r]);
   return least_lane8(d8, p.least[0]);
