@@ -25,7 +25,8 @@ using V16 = hn::Vec<D16>;
 
 // Census: one comparison (bit) at a time over N pixels, as 16-bit lanes so that the two halves
 // of the signature come out as the uint16 planes the costs read.
-void CensusRow(const CensusRowArgs& a) {
+void CensusRow(const CensusRowArgs& args) {
+  const CensusRowArgs a = args;  // a local copy: see aggregate()
   const D16 d;
   const DI16 di;
   const D8 d8;
@@ -49,7 +50,10 @@ void CensusRow(const CensusRowArgs& a) {
   }
 }
 
-void CostRow(const CostRowArgs& a) {
+void CostRow(const CostRowArgs& args) {
+  // A local copy, as in aggregate(): through the reference GCC reloaded the pad mask's pointer
+  // and the lane count after every store.
+  const CostRowArgs a = args;
   const D16 d;
   const int n = static_cast<int>(hn::Lanes(d));
   for (int x = 0; x < a.width; ++x) {
@@ -453,7 +457,8 @@ HWY_INLINE void winner(const DecideRowArgs& a, int x) {
 // Right to left, the lanes of right_min_rev that pixel x can still reach (W - 1 - x + k) are a
 // window in `window` (whole vectors: reloads of what was just stored are forwarded); after
 // pixel x its first lane is final, and the window moves one lane.
-void DecideRow(const DecideRowArgs& a) {
+void DecideRow(const DecideRowArgs& args) {
+  const DecideRowArgs a = args;  // a local copy: see CostRow
   const D16 d;
   const int n = static_cast<int>(hn::Lanes(d));
   const V16 masked = hn::Set(d, kSgmMaskedCost);
