@@ -7,6 +7,7 @@
 #define HWY_TARGET_INCLUDE "sgm_kernels.cpp"  // NOLINT: this file, found by its folder
 #include "sgm_kernels.hpp"
 
+#include <hwy/cache_control.h>
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
@@ -402,6 +403,13 @@ void aggregate8(const AggregateRowArgs& args) {
       p.set(r + 1, reinterpret_cast<const std::uint8_t*>(v.prev) + slot * stride + kSgmGuard8,
             v.prev_min[slot], a.p2_scratch[(r + 1) * a.width + x],
             reinterpret_cast<std::uint8_t*>(v.cur) + (x + 1) * stride + kSgmGuard8);
+    }
+    if (a.add != nullptr) {
+      // The top-down sums come from memory (they were streamed past the caches): fetched a
+      // few pixels ahead of the pixel that adds them.
+      const int ahead = std::clamp(x + 16 * a.step, 0, a.width - 1);
+      const std::uint16_t* next = a.add + static_cast<std::ptrdiff_t>(ahead) * a.lanes;
+      for (int k = 0; k < a.lanes; k += 32) hwy::Prefetch(next + k);
     }
     h_min = pixel_paths8<D8, NV>(a, x, p);
     h_prev = h_cur;
