@@ -426,18 +426,27 @@ void aggregate8_paths(const AggregateRowArgs& a) {
 }
 #endif
 
+#if HWY_TARGET != HWY_SCALAR
+// A template, so that the half-vector branch is only instantiated where it can be taken (a
+// discarded `if constexpr` branch outside a template would still be compiled for every target,
+// the 64-bit halves of 128-bit ones included).
+template <class D8>
+void aggregate8_lanes(const AggregateRowArgs& a) {
+  if (a.lanes % static_cast<int>(hn::Lanes(D8())) == 0) {
+    aggregate8_paths<D8>(a);
+  } else if constexpr (hn::MaxLanes(D8()) > kSgmMaxVectorLanes) {
+    aggregate8_paths<hn::Half<D8>>(a);  // AVX-512 (64 lanes) with lanes an odd multiple of 32
+  } else {
+    AggregateRow(a);  // not reached: lanes is a multiple of kSgmMaxVectorLanes
+  }
+}
+#endif
+
 void AggregateRow8(const AggregateRowArgs& a) {
 #if HWY_TARGET == HWY_SCALAR
   AggregateRow(a);  // one lane: nothing to halve (the sums are the same)
 #else
-  using D8 = hn::ScalableTag<std::uint8_t>;
-  if (a.lanes % static_cast<int>(hn::Lanes(D8())) == 0) {
-    aggregate8_paths<D8>(a);
-  } else if constexpr (hn::MaxLanes(D8()) > kSgmMaxVectorLanes) {
-    aggregate8_paths<hn::Half<D8> >(a);  // AVX-512 (64 lanes) with lanes an odd multiple of 32
-  } else {
-    AggregateRow(a);  // not reached: lanes is a multiple of kSgmMaxVectorLanes
-  }
+  aggregate8_lanes<hn::ScalableTag<std::uint8_t>>(a);
 #endif
 }
 
