@@ -145,10 +145,12 @@ BlockMatcherOptions kestrel_options(int num, kestrel::sensor::MatchingCost cost,
 }
 
 /// The semi-global matcher with its defaults over `num` disparities (one set for every scene),
-/// or with its left-right check on (tolerance 1 px).
+/// or with its left-right check on (tolerance 1 px). KESTREL_BENCH_SGM_PATHS=4 measures the
+/// 4-path variant (speed and quality) without another binary.
 SgmOptions sgm_options(int num, bool checked = false) {
   SgmOptions o;
   o.max_disparity = num;
+  if (const char* paths = std::getenv("KESTREL_BENCH_SGM_PATHS")) o.paths = std::atoi(paths);
   if (checked) o.lr_max_diff = 1;
   return o;
 }

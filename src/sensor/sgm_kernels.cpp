@@ -7,6 +7,7 @@
 #define HWY_TARGET_INCLUDE "sgm_kernels.cpp"  // NOLINT: this file, found by its folder
 #include "sgm_kernels.hpp"
 
+#include <hwy/cache_control.h>
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
@@ -25,7 +26,8 @@ using V16 = hn::Vec<D16>;
 
 // Census: one comparison (bit) at a time over N pixels, as 16-bit lanes so that the two halves
 // of the signature come out as the uint16 planes the costs read.
-void CensusRow(const CensusRowArgs& a) {
+void CensusRow(const CensusRowArgs& args) {
+  const CensusRowArgs a = args;  // a local copy: see aggregate()
   const D16 d;
   const DI16 di;
   const D8 d8;
@@ -49,7 +51,10 @@ void CensusRow(const CensusRowArgs& a) {
   }
 }
 
-void CostRow(const CostRowArgs& a) {
+void CostRow(const CostRowArgs& args) {
+  // A local copy, as in aggregate(): through the reference GCC reloaded the pad mask's pointer
+  // and the lane count after every store.
+  const CostRowArgs a = args;
   const D16 d;
   const int n = static_cast<int>(hn::Lanes(d));
   for (int x = 0; x < a.width; ++x) {
@@ -82,9 +87,10 @@ HWY_INLINE std::uint16_t least_lane(D d, hn::Vec<D> v) {
 #endif
 }
 
-// Eq. 13 on N lanes, given the previous pixel's costs at d, d - 1 and d + 1.
-HWY_INLINE V16 path_lanes(V16 at, V16 below, V16 above, V16 prev_min, V16 jump, V16 p1, V16 cost) {
-  const V16 t = hn::Min(hn::Min(at, hn::SaturatedAdd(hn::Min(below, above), p1)), jump);
+// Eq. 13 on N lanes (uint16 or uint8), given the previous pixel's costs at d, d - 1, d + 1.
+template <class V>
+HWY_INLINE V path_lanes(V at, V below, V above, V prev_min, V jump, V p1, V cost) {
+  const V t = hn::Min(hn::Min(at, hn::SaturatedAdd(hn::Min(below, above), p1)), jump);
   return hn::SaturatedAdd(cost, hn::Sub(t, prev_min));
 }
 
@@ -195,21 +201,27 @@ HWY_INLINE std::uint16_t pixel_paths(const AggregateRowArgs& a, int x, PixelPath
 }
 
 // P2 of each path at every pixel of the row (eq. 16), in a plain loop before the recursion so
-// that the per-pixel work there is loads only: row r of `p2` is path r (0: horizontal).
+// that the per-pixel work there is loads only: row r of `p2` is path r (0: horizontal). The
+// borders clamp the neighbour; the loop between them needs no clamp and, the table being
+// symmetric, no absolute value (it was ~10 % of the 8-bit recursion's time with both).
+HWY_INLINE void penalty_row(const AggregateRowArgs& a, const std::uint8_t* other, int dx,
+                            std::uint16_t* p2) {
+  const int w = a.width;
+  const std::uint8_t* image = a.image;
+  const std::uint16_t* lut = a.p2_lut;
+  for (const int x : {0, w - 1}) {
+    p2[x] = lut[int{image[x]} - int{other[std::clamp(x + dx, 0, w - 1)]}];
+  }
+  const std::uint8_t* shifted = other + dx;
+  for (int x = 1; x + 1 < w; ++x) p2[x] = lut[int{image[x]} - int{shifted[x]}];
+}
+
 template <int NV>
 HWY_INLINE void row_penalties(const AggregateRowArgs& a, std::uint16_t* p2) {
-  const int w = a.width;
-  for (int x = 0; x < w; ++x) {
-    const int xh = std::clamp(x - a.step, 0, w - 1);
-    p2[x] = a.p2_lut[std::abs(int{a.image[x]} - int{a.image[xh]})];
-  }
+  penalty_row(a, a.image, -a.step, p2);
   for (int r = 0; r < NV; ++r) {
-    std::uint16_t* row = p2 + static_cast<std::ptrdiff_t>(r + 1) * w;
-    const int dx = a.vertical[r].dx;
-    for (int x = 0; x < w; ++x) {
-      const int xv = std::clamp(x + dx, 0, w - 1);
-      row[x] = a.p2_lut[std::abs(int{a.image[x]} - int{a.image_prev[xv]})];
-    }
+    penalty_row(a, a.image_prev, a.vertical[r].dx,
+                p2 + static_cast<std::ptrdiff_t>(r + 1) * a.width);
   }
 }
 
@@ -251,6 +263,193 @@ void AggregateRow(const AggregateRowArgs& a) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// The same recursion in uint8 path costs: a vector holds twice the disparities, so the
+// recursion takes half the operations; the sums stay uint16 (each path's costs widened once).
+// Exact as long as every real path cost stays <= 254 (the caller's condition, sgm_kernels.hpp):
+// then min(L(d), L(d +- 1) + P1, min L + P2) is the same whether the two sums saturate at 255
+// or not (it is at most L(d) <= 254), and 0xFF marks the masked lanes as 0xFFFF does.
+
+#if HWY_TARGET != HWY_SCALAR
+// rotate_blocks / shift_up / shift_down for any lane type and vector width.
+template <class D>
+HWY_INLINE hn::Vec<D> rotate_blocks_of(D d, hn::Vec<D> v, bool up) {
+  const hn::Repartition<std::uint64_t, D> d64;
+  const hn::RebindToSigned<decltype(d64)> di64;
+  const auto n64 = static_cast<std::int64_t>(hn::Lanes(d64));
+  const auto idx = hn::And(hn::Iota(di64, up ? n64 - 2 : 2), hn::Set(di64, n64 - 1));
+  return hn::BitCast(d, hn::TableLookupLanes(hn::BitCast(d64, v), hn::IndicesFromVec(d64, idx)));
+}
+
+template <class D>
+HWY_INLINE hn::Vec<D> shift_up_of(D d, hn::Vec<D> v, hn::Vec<D> before) {
+  constexpr int kSize = sizeof(hn::TFromD<D>);
+  const auto previous_blocks = hn::IfThenElse(
+      hn::FirstN(d, 16 / kSize), rotate_blocks_of(d, before, true), rotate_blocks_of(d, v, true));
+  return hn::CombineShiftRightBytes<16 - kSize>(d, v, previous_blocks);
+}
+
+template <class D>
+HWY_INLINE hn::Vec<D> shift_down_of(D d, hn::Vec<D> v, hn::Vec<D> after) {
+  constexpr int kSize = sizeof(hn::TFromD<D>);
+  const auto next_blocks =
+      hn::IfThenElse(hn::FirstN(d, hn::Lanes(d) - 16 / kSize), rotate_blocks_of(d, v, false),
+                     rotate_blocks_of(d, after, false));
+  return hn::CombineShiftRightBytes<kSize>(d, next_blocks, v);
+}
+
+// The least lane of uint8 lanes: halves folded to 128 bits, then each uint16 lane's two bytes
+// (the high byte moved down, zeros above: the low byte keeps min(low, high), the high byte 0),
+// whose least is least_lane's one instruction.
+template <class D>
+HWY_INLINE std::uint16_t least_lane8(D d, hn::Vec<D> v) {
+  if constexpr (hn::MaxLanes(D()) > 16) {
+    const hn::Half<D> dh;
+    return least_lane8(dh, hn::Min(hn::LowerHalf(dh, v), hn::UpperHalf(dh, v)));
+  } else {
+    const hn::Repartition<std::uint16_t, D> dw;
+    const auto pairs =
+        hn::BitCast(dw, hn::Min(v, hn::BitCast(d, hn::ShiftRight<8>(hn::BitCast(dw, v)))));
+    return least_lane(dw, pairs);
+  }
+}
+
+// PixelPaths in uint8 lanes.
+template <class D8, int NP>
+struct PixelPaths8 {
+  const std::uint8_t* prev[NP];
+  std::uint8_t* out[NP];
+  hn::Vec<D8> prev_min[NP], jump[NP], least[NP];
+
+  HWY_INLINE void set(int r, const std::uint8_t* from, std::uint16_t from_min, std::uint16_t p2,
+                      std::uint8_t* to) {
+    const D8 d;
+    prev[r] = from;
+    out[r] = to;
+    // The low byte: least costs are <= 0xFF, and the masked 0xFFFF of the entry slots -> 0xFF.
+    prev_min[r] = hn::Set(d, static_cast<std::uint8_t>(from_min));
+    jump[r] = hn::SaturatedAdd(prev_min[r], hn::Set(d, static_cast<std::uint8_t>(p2)));
+  }
+};
+
+template <class D8, int NV>
+HWY_INLINE std::uint16_t pixel_paths8(const AggregateRowArgs& a, int x,
+                                      PixelPaths8<D8, NV + 1>& p) {
+  const D8 d8;
+  const hn::Repartition<std::uint16_t, D8> dw;  // the same bytes as uint16: half the lanes
+  const hn::Half<D8> dh;
+  using V8 = hn::Vec<D8>;
+  const int n = static_cast<int>(hn::Lanes(d8)), nw = n / 2;
+  const V8 p1 = hn::Set(d8, static_cast<std::uint8_t>(a.p1));
+  const V8 masked = hn::Set(d8, std::uint8_t{0xFF});
+  const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(x) * a.lanes;
+  for (int k = 0; k < a.lanes; k += n) {
+    // The costs' low bytes: real costs are <= 32 and masked 0xFFFF becomes 0xFF.
+    const std::uint16_t* c = a.cost + base + k;
+    const V8 cost = hn::ConcatEven(d8, hn::BitCast(d8, hn::LoadU(dw, c + nw)),
+                                   hn::BitCast(d8, hn::LoadU(dw, c)));
+    const std::uint16_t* init = a.add ? a.add + base + k : a.pad_mask + k;
+    auto sum_lo = hn::LoadU(dw, init);
+    auto sum_hi = hn::LoadU(dw, init + nw);
+    for (int r = 0; r <= NV; ++r) {
+      const std::uint8_t* prev = p.prev[r] + k;
+      const V8 at = hn::LoadU(d8, prev);
+      V8 l;
+      if (r == 0) {  // the horizontal path: the neighbours shifted in registers (see above)
+        const V8 before = k > 0 ? hn::LoadU(d8, prev - n) : masked;
+        const V8 after = k + n < a.lanes ? hn::LoadU(d8, prev + n) : masked;
+        l = path_lanes(at, shift_up_of(d8, at, before), shift_down_of(d8, at, after), p.prev_min[0],
+                       p.jump[0], p1, cost);
+      } else {
+        l = path_lanes(at, hn::LoadU(d8, prev - 1), hn::LoadU(d8, prev + 1), p.prev_min[r],
+                       p.jump[r], p1, cost);
+      }
+      hn::StoreU(l, d8, p.out[r] + k);
+      p.least[r] = k == 0 ? l : hn::Min(p.least[r], l);
+      sum_lo = hn::SaturatedAdd(sum_lo, hn::PromoteTo(dw, hn::LowerHalf(dh, l)));
+      sum_hi = hn::SaturatedAdd(sum_hi, hn::PromoteTo(dw, hn::UpperHalf(dh, l)));
+    }
+    if (a.add == nullptr) {
+      // The top-down sums are read a whole pass later: past the caches, written around them
+      // (no read for ownership). Aligned: the volume is, and lanes and k are multiples of n.
+      hn::Stream(sum_lo, dw, a.sum + base + k);
+      hn::Stream(sum_hi, dw, a.sum + base + k + nw);
+    } else {
+      hn::StoreU(sum_lo, dw, a.sum + base + k);
+      hn::StoreU(sum_hi, dw, a.sum + base + k + nw);
+    }
+  }
+  for (int r = 1; r <= NV; ++r) a.vertical[r - 1].cur_min[x + 1] = least_lane8(d8, p.least[r]);
+  return least_lane8(d8, p.least[0]);
+}
+
+template <class D8, int NV>
+void aggregate8(const AggregateRowArgs& args) {
+  const AggregateRowArgs a = args;  // a local copy, as in aggregate()
+  const int stride = a.lanes + kSgmGuard8;
+  const int x0 = a.step > 0 ? 0 : a.width - 1;
+  row_penalties<NV>(a, a.p2_scratch);
+  auto* const horizontal = reinterpret_cast<std::uint8_t*>(a.horizontal);
+  const std::uint8_t* h_prev = horizontal + kSgmGuard8;  // the masked slot
+  std::uint16_t h_min = 0xFF;
+  PixelPaths8<D8, NV + 1> p{};
+  for (int i = 0; i < a.width; ++i) {
+    const int x = x0 + i * a.step;
+    std::uint8_t* h_cur = horizontal + (1 + (i & 1)) * stride + kSgmGuard8;
+    p.set(0, h_prev, h_min, a.p2_scratch[x], h_cur);
+    for (int r = 0; r < NV; ++r) {
+      const PathRows& v = a.vertical[r];
+      const int slot = x + 1 + v.dx;
+      p.set(r + 1, reinterpret_cast<const std::uint8_t*>(v.prev) + slot * stride + kSgmGuard8,
+            v.prev_min[slot], a.p2_scratch[(r + 1) * a.width + x],
+            reinterpret_cast<std::uint8_t*>(v.cur) + (x + 1) * stride + kSgmGuard8);
+    }
+    if (a.add != nullptr) {
+      // The top-down sums come from memory (they were streamed past the caches): fetched a
+      // few pixels ahead of the pixel that adds them.
+      const int ahead = std::clamp(x + 16 * a.step, 0, a.width - 1);
+      const std::uint16_t* next = a.add + static_cast<std::ptrdiff_t>(ahead) * a.lanes;
+      for (int k = 0; k < a.lanes; k += 32) hwy::Prefetch(next + k);
+    }
+    h_min = pixel_paths8<D8, NV>(a, x, p);
+    h_prev = h_cur;
+  }
+}
+
+template <class D8>
+void aggregate8_paths(const AggregateRowArgs& a) {
+  if (a.num_vertical == 3) {
+    aggregate8<D8, 3>(a);
+  } else {
+    aggregate8<D8, 1>(a);
+  }
+}
+#endif
+
+#if HWY_TARGET != HWY_SCALAR
+// A template, so that the half-vector branch is only instantiated where it can be taken (a
+// discarded `if constexpr` branch outside a template would still be compiled for every target,
+// the 64-bit halves of 128-bit ones included).
+template <class D8>
+void aggregate8_lanes(const AggregateRowArgs& a) {
+  if (a.lanes % static_cast<int>(hn::Lanes(D8())) == 0) {
+    aggregate8_paths<D8>(a);
+  } else if constexpr (hn::MaxLanes(D8()) > kSgmMaxVectorLanes) {
+    aggregate8_paths<hn::Half<D8>>(a);  // AVX-512 (64 lanes) with lanes an odd multiple of 32
+  } else {
+    AggregateRow(a);  // not reached: lanes is a multiple of kSgmMaxVectorLanes
+  }
+}
+#endif
+
+void AggregateRow8(const AggregateRowArgs& a) {
+#if HWY_TARGET == HWY_SCALAR
+  AggregateRow(a);  // one lane: nothing to halve (the sums are the same)
+#else
+  aggregate8_lanes<hn::ScalableTag<std::uint8_t>>(a);
+#endif
+}
+
 // The winner of pixel x: least summed cost and its first lane.
 HWY_INLINE void winner(const DecideRowArgs& a, int x) {
   const D16 d;
@@ -275,10 +474,15 @@ HWY_INLINE void winner(const DecideRowArgs& a, int x) {
 // Right to left, the lanes of right_min_rev that pixel x can still reach (W - 1 - x + k) are a
 // window in `window` (whole vectors: reloads of what was just stored are forwarded); after
 // pixel x its first lane is final, and the window moves one lane.
-void DecideRow(const DecideRowArgs& a) {
+void DecideRow(const DecideRowArgs& args) {
+  const DecideRowArgs a = args;  // a local copy: see CostRow
   const D16 d;
   const int n = static_cast<int>(hn::Lanes(d));
   const V16 masked = hn::Set(d, kSgmMaskedCost);
+  if (a.right_min_rev == nullptr) {
+    for (int x = 0; x < a.width; ++x) winner(a, x);
+    return;
+  }
   std::uint16_t* window = a.right_min_rev + a.width;  // scratch: lanes entries past the row
   for (int k = 0; k < a.lanes; k += n) hn::StoreU(masked, d, window + k);
   for (int x = a.width - 1; x >= 0; --x) {
@@ -310,6 +514,7 @@ namespace kestrel::sensor::sgm {
 HWY_EXPORT(CensusRow);
 HWY_EXPORT(CostRow);
 HWY_EXPORT(AggregateRow);
+HWY_EXPORT(AggregateRow8);
 HWY_EXPORT(DecideRow);
 HWY_EXPORT(TargetName);
 
@@ -317,11 +522,12 @@ namespace {
 void census_row(const CensusRowArgs& a) { HWY_DYNAMIC_DISPATCH(CensusRow)(a); }
 void cost_row(const CostRowArgs& a) { HWY_DYNAMIC_DISPATCH(CostRow)(a); }
 void aggregate_row(const AggregateRowArgs& a) { HWY_DYNAMIC_DISPATCH(AggregateRow)(a); }
+void aggregate_row8(const AggregateRowArgs& a) { HWY_DYNAMIC_DISPATCH(AggregateRow8)(a); }
 void decide_row(const DecideRowArgs& a) { HWY_DYNAMIC_DISPATCH(DecideRow)(a); }
 }  // namespace
 
 const Kernels& simd_kernels() {
-  static const Kernels k{census_row, cost_row, aggregate_row, decide_row};
+  static const Kernels k{census_row, cost_row, aggregate_row, aggregate_row8, decide_row};
   return k;
 }
 

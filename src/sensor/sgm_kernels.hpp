@@ -23,6 +23,12 @@ inline constexpr std::uint16_t kSgmMaskedCost = 0xFFFF;
 inline constexpr int kSgmMaxVectorLanes = 32;
 /// Guard lanes in front of each slot (64 bytes: the slots stay on cache-line boundaries).
 inline constexpr int kSgmGuard = 32;
+/// The 8-bit path recursion (AggregateRowArgs, Kernels::aggregate_row8) keeps the path costs in
+/// uint8 lanes, 0xFF masked: exact iff every real path cost stays <= 254, i.e. iff
+/// max cost + P2 <= kSgmMax8BitCostPlusP2 (L - min L <= C + P2, eq. 13). Its slots are bytes in
+/// the same buffers: kSgmGuard8 guard bytes (64: cache-line boundaries again), then `lanes`.
+inline constexpr int kSgmMax8BitCostPlusP2 = 254;
+inline constexpr int kSgmGuard8 = 64;
 
 /// Census signatures of one image row: bit b of the signature is I(p + a_b) > I(p + b_b), for
 /// the pairs of offsets (a_b, b_b) in a border-replicated 8-bit image (element offsets from the
@@ -79,8 +85,13 @@ struct AggregateRowArgs {
   int num_vertical = 0;                      ///< 1 (4 paths) or 3 (8 paths)
   const std::uint8_t* image = nullptr;       ///< this row of the left image
   const std::uint8_t* image_prev = nullptr;  ///< the previous row on the vertical paths
-  const std::uint16_t* p2_lut = nullptr;     ///< 256 entries, each >= p1
-  std::uint16_t* p2_scratch = nullptr;       ///< 4 x width: P2 per path and pixel (scratch)
+  /// P2 by intensity difference, each >= p1: p2_lut[-255..255] are readable (symmetric), so
+  /// that p2_lut[I(p) - I(q)] needs no absolute value.
+  const std::uint16_t* p2_lut = nullptr;
+  std::uint16_t* p2_scratch = nullptr;  ///< 4 x width: P2 per path and pixel (scratch)
+  /// lanes entries, kSgmMaskedCost past the range: the 8-bit kernel's sums start there when
+  /// `add` is null (its masked path costs are 0xFF, not 0xFFFF; the sums stay the same).
+  const std::uint16_t* pad_mask = nullptr;
   std::uint16_t p1 = 0;
   int width = 0, lanes = 0;
   int step = 1;
@@ -96,7 +107,7 @@ struct DecideRowArgs {
   int width = 0, lanes = 0;
   std::int32_t* best = nullptr;
   std::uint16_t* best_cost = nullptr;
-  std::uint16_t* right_min_rev = nullptr;
+  std::uint16_t* right_min_rev = nullptr;  ///< null: winners only (no left-right check)
 };
 
 /// The kernels of one implementation.
@@ -104,6 +115,11 @@ struct Kernels {
   void (*census_row)(const CensusRowArgs&);
   void (*cost_row)(const CostRowArgs&);
   void (*aggregate_row)(const AggregateRowArgs&);
+  /// The same in uint8 path costs (slots of kSgmGuard8 + lanes bytes in the same buffers;
+  /// cur_min/prev_min as before, masked >= 0xFF), for costs and P2 that keep every path cost
+  /// <= kSgmMax8BitCostPlusP2; the sums are those of aggregate_row bit for bit. Null where an
+  /// implementation has none (the scalar reference: one implementation to check against).
+  void (*aggregate_row8)(const AggregateRowArgs&);
   void (*decide_row)(const DecideRowArgs&);
 };
 

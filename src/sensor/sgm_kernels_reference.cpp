@@ -92,6 +92,7 @@ void decide_row(const DecideRowArgs& a) {
     a.best[x] = best;
     a.best_cost[x] = s[best];
   }
+  if (a.right_min_rev == nullptr) return;
   for (int j = 0; j < a.width; ++j) {  // right pixel xr = width - 1 - min_disparity - j
     std::uint16_t least = kSgmMaskedCost;
     for (int k = 0; k < a.lanes && j - k >= 0; ++k) {
@@ -105,7 +106,7 @@ void decide_row(const DecideRowArgs& a) {
 }  // namespace
 
 const Kernels& reference_kernels() {
-  static const Kernels k{census_row, cost_row, aggregate_row, decide_row};
+  static const Kernels k{census_row, cost_row, aggregate_row, nullptr, decide_row};
   return k;
 }
 

@@ -6,8 +6,6 @@
 // large buffer is the top-down sums. The row kernels are in sgm_kernels.hpp.
 #include "kestrel/sensor/sgm_matcher.hpp"
 
-#include "grey_input.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
@@ -15,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "grey_input.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"
@@ -120,6 +119,13 @@ SgmMatcher::SgmMatcher(SgmOptions options) : options_(options) { options_.valida
 const char* SgmMatcher::simd_target() { return sgm::simd_target(); }
 std::vector<std::int64_t> SgmMatcher::simd_targets() { return sgm::simd_targets(); }
 
+bool SgmMatcher::runs_8bit_paths() const {
+  // Every path cost is at most the largest matching cost (the census bits; the neutral cost is
+  // half of them) plus the largest P2 (p2_lut's entries are at most max(p1, p2) = p2).
+  return allow_8bit_ && !reference_ && sgm::simd_kernels().aggregate_row8 != nullptr &&
+         options_.census_bits() + options_.p2 <= sgm::kSgmMax8BitCostPlusP2;
+}
+
 void SgmMatcher::prepare(int width, int height) {
   if (width == width_ && height == height_) return;
   width_ = width;
@@ -220,12 +226,14 @@ void SgmMatcher::cost_row(int y) {
 // row into `disparity`).
 void SgmMatcher::pass(int dir, cv::Mat& disparity) {
   rows_.fill(kSgmMaskedCost);
+  horizontal_.fill(kSgmMaskedCost);  // its guards may hold the other recursion's costs
   std::fill(row_min_.begin(), row_min_.end(), kSgmMaskedCost);
   const std::size_t slots = static_cast<std::size_t>(width_ + 2) * (lanes_ + kSgmGuard);
   const std::size_t mins = static_cast<std::size_t>(width_ + 2);
   const int num_vertical = options_.paths == 8 ? 3 : 1;
   const int dxs[3] = {num_vertical == 3 ? -1 : 0, 0, 1};
   const sgm::Kernels& k = reference_ ? sgm::reference_kernels() : sgm::simd_kernels();
+  const auto aggregate_row = runs_8bit_paths() ? k.aggregate_row8 : k.aggregate_row;
   const std::size_t plane = static_cast<std::size_t>(width_) * lanes_;
   for (int i = 0; i < height_; ++i) {
     const int y = dir > 0 ? i : height_ - 1 - i;
@@ -245,13 +253,14 @@ void SgmMatcher::pass(int dir, cv::Mat& disparity) {
     }
     a.image = left_.ptr<std::uint8_t>(y);
     a.image_prev = left_.ptr<std::uint8_t>(i == 0 ? y : y - dir);
-    a.p2_lut = p2_lut_.data();
+    a.p2_lut = p2_lut_.data() + 255;
     a.p2_scratch = p2_row_.data();
+    a.pad_mask = pad_mask_.data();
     a.p1 = static_cast<std::uint16_t>(options_.p1);
     a.width = width_;
     a.lanes = lanes_;
     a.step = dir;
-    k.aggregate_row(a);
+    aggregate_row(a);
     if (dir < 0) decide_row(y, disparity.ptr<float>(y));
   }
 }
@@ -284,7 +293,8 @@ void SgmMatcher::decide_row(int y, float* out) {
   a.lanes = lanes_;
   a.best = best_.data();
   a.best_cost = best_cost_.data();
-  a.right_min_rev = right_min_rev_.data();
+  // The right view's minima serve the left-right check only.
+  a.right_min_rev = options_.lr_max_diff >= 0 ? right_min_rev_.data() : nullptr;
   (reference_ ? sgm::reference_kernels() : sgm::simd_kernels()).decide_row(a);
   std::uint8_t* rejected = rejected_.data() + static_cast<std::size_t>(y) * width_;
   for (int x = 0; x < width_; ++x) {
@@ -362,11 +372,13 @@ MatchStats SgmMatcher::match(const cv::Mat& left, const cv::Mat& right, cv::Mat&
   left_ = grey8(left, gray_l_, "left");
   const cv::Mat right_gray = grey8(right, gray_r_, "right");
   prepare(left.cols, left.rows);
-  p2_lut_.resize(256);
-  for (int di = 0; di < 256; ++di) {
+  p2_lut_.resize(511);  // P2 by intensity difference -255..255 (symmetric: the kernels index it
+  for (int di = 0; di < 256; ++di) {  // by the signed difference)
     const int g = options_.p2_gradient;
     const int p2 = g == 0 ? options_.p2 : options_.p2 * g / (g + di);
-    p2_lut_[static_cast<std::size_t>(di)] = static_cast<std::uint16_t>(std::max(options_.p1, p2));
+    const auto value = static_cast<std::uint16_t>(std::max(options_.p1, p2));
+    p2_lut_[static_cast<std::size_t>(255 + di)] = value;
+    p2_lut_[static_cast<std::size_t>(255 - di)] = value;
   }
   census(left_, census_l_lo_, census_l_hi_);
   census(right_gray, census_r_lo_, census_r_hi_);

@@ -354,5 +354,74 @@ TEST(SgmMatcher, SimdKernelsMatchTheScalarReferenceOnEveryTarget) {
   }
 }
 
+// The 8-bit path recursion against the 16-bit one, on every target: the same maps bit for bit
+// (and so the same sums behind the winners, the parabola and the check) for every option set
+// above (all fit in 8 bits) and one at the limit, census bits + p2 = 254.
+TEST(SgmMatcher, EightBitPathsMatchSixteenBitPathsOnEveryTarget) {
+  const std::vector<std::int64_t> targets = SgmMatcher::simd_targets();
+  ASSERT_FALSE(targets.empty());
+  const cv::Mat wide = random_dots(173 + 30, 61, 23, 1.0);
+  cv::Mat l, r;
+  shifted_pair(wide, 11, l, r);
+  cv::Mat noise = random_dots(l.cols, l.rows, 24);
+  cv::addWeighted(r, 0.85, noise, 0.15, 0.0, r);
+  std::vector<SgmOptions> sets = kernel_option_sets();
+  SgmOptions edge;  // the largest penalty that still fits: 31 census bits + 223 = 254
+  edge.p2 = 223;
+  edge.p1 = 40;
+  edge.max_disparity = 96;  // 96 lanes: AVX-512's 64-lane bytes do not divide them
+  sets.push_back(edge);
+  int eight_bit = 0;
+  for (const SgmOptions& o : sets) {
+    for (const std::int64_t target : targets) {
+      hwy::SetSupportedTargetsForTest(target);
+      SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target) + ", " + o.describe());
+      SgmMatcher narrow(o), wide16(o);
+      wide16.allow_8bit_paths(false);
+      EXPECT_FALSE(wide16.runs_8bit_paths());
+      if (!narrow.runs_8bit_paths()) continue;
+      ++eight_bit;
+      cv::Mat got, expected;
+      const MatchStats gs = narrow.match(l, r, got);
+      const MatchStats es = wide16.match(l, r, expected);
+      EXPECT_TRUE(same_bits(got, expected));
+      EXPECT_EQ(gs.valid, es.valid);
+      EXPECT_EQ(gs.rejected_lr, es.rejected_lr);
+      // The same matcher again with the other recursion: its buffers hold the first one's.
+      narrow.allow_8bit_paths(false);
+      cv::Mat again;
+      narrow.match(l, r, again);
+      EXPECT_TRUE(same_bits(again, expected));
+    }
+    hwy::SetSupportedTargetsForTest(0);
+  }
+  EXPECT_EQ(eight_bit, static_cast<int>(sets.size() * targets.size()));
+  EXPECT_TRUE(SgmMatcher().runs_8bit_paths());  // the defaults: 31 + 150 <= 254
+}
+
+// Penalties too large for 8-bit path costs (census bits + p2 > 254) fall back to the 16-bit
+// recursion, which still matches the scalar reference.
+TEST(SgmMatcher, PenaltiesTooLargeForEightBitsFallBackToSixteen) {
+  const cv::Mat wide = random_dots(120 + 30, 40, 25, 1.0);
+  cv::Mat l, r;
+  shifted_pair(wide, 7, l, r);
+  SgmOptions o;
+  o.p2 = 224;  // 31 + 224 = 255: a path cost could reach the masked value 0xFF
+  SgmMatcher simd(o), reference(o);
+  EXPECT_FALSE(simd.runs_8bit_paths());
+  reference.set_reference(true);
+  EXPECT_FALSE(reference.runs_8bit_paths());
+  o.p2 = 223;
+  EXPECT_TRUE(SgmMatcher(o).runs_8bit_paths());
+  o.p2 = 150;
+  o.census = CensusPattern::kFull;  // 9 x 7 full would be 62 bits: 5 x 5 full, 24 bits
+  o.census_width = o.census_height = 5;
+  o.p2 = 231;  // 24 + 231 = 255
+  EXPECT_FALSE(SgmMatcher(o).runs_8bit_paths());
+  const cv::Mat expected = reference.match(l, r);
+  const cv::Mat got = simd.match(l, r);
+  EXPECT_TRUE(same_bits(got, expected));
+}
+
 }  // namespace
 }  // namespace kestrel::sensor

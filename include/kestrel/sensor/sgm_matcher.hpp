@@ -139,6 +139,13 @@ class SgmMatcher {
   /// are the same bit for bit.
   void set_reference(bool reference) { reference_ = reference; }
   [[nodiscard]] bool reference() const { return reference_; }
+  /// Whether the SIMD kernels may keep the path costs in 8 bits (default: yes). They do so
+  /// only where that is exact, census bits + p2 <= 254 (the defaults: 31 + 150), and the maps
+  /// are the same bit for bit either way; false forces the 16-bit recursion (tests, benchmarks).
+  void allow_8bit_paths(bool allow) { allow_8bit_ = allow; }
+  /// True iff match() runs the 8-bit path recursion: allowed, the SIMD kernels, and options
+  /// whose path costs fit.
+  [[nodiscard]] bool runs_8bit_paths() const;
   /// Pixels the last match's speckle removal took out (MatchStats has no field for them; they
   /// are not in its `valid`).
   [[nodiscard]] std::size_t speckles_removed() const { return speckles_removed_; }
@@ -160,6 +167,7 @@ class SgmMatcher {
 
   SgmOptions options_;
   bool reference_ = false;
+  bool allow_8bit_ = true;
   std::size_t speckles_removed_ = 0;
   int width_ = 0, height_ = 0;
   int range_ = 0;                                  // max - min disparity
