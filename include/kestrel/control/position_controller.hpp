@@ -45,7 +45,10 @@ struct PositionControllerOptions {
   /// PX4's hover-thrust estimator. Catches wind, a thrust deficit or a heavier vehicle within a few
   /// time constants instead of the integral's seconds; the integral keeps what the observer cannot
   /// see (attitude errors of the estimate). Needs VehicleStateEstimate::specific_force_body.
-  bool disturbance_observer = true;
+  /// Off by default: it improves every realistic-world flight measured but costs the ideal
+  /// world's hover 0.4-0.7 mm RMS (docs/flight.md, "World"); config/controller_observer.yaml
+  /// switches it on.
+  bool disturbance_observer = false;
   /// First-order low-pass of the raw estimate, horizontal: the 15x IMU noise of the realistic
   /// world (1.9 m/s^2 per 1 kHz sample, 0.06 m/s^2/sqrt(Hz)) reaches the tilt command as
   /// sigma = density / sqrt(4 tau) / g before the loop's own amplification; 0.4 s keeps it
