@@ -57,13 +57,25 @@ void PositionControllerOptions::validate() const {
   nonneg("integral_limit_xy_m_s2", integral_limit_xy_m_s2);
   nonneg("integral_limit_z_m_s2", integral_limit_z_m_s2);
   pos("max_accel_xy_m_s2", max_accel_xy_m_s2);
+  pos("observer_time_constant_xy_s", observer_time_constant_xy_s);
+  pos("observer_time_constant_z_s", observer_time_constant_z_s);
+  nonneg("observer_drag_xy_per_s", observer_drag_xy_per_s);
+  nonneg("observer_drag_z_per_s", observer_drag_z_per_s);
+  nonneg("observer_quadratic_drag_xy_per_m", observer_quadratic_drag_xy_per_m);
+  nonneg("observer_quadratic_drag_z_per_m", observer_quadratic_drag_z_per_m);
+  nonneg("observer_integral_scale", observer_integral_scale);
+  if (observer_integral_scale > 1.0) fail("observer_integral_scale", "must be at most 1");
+  nonneg("observer_limit_xy_m_s2", observer_limit_xy_m_s2);
+  nonneg("observer_limit_z_m_s2", observer_limit_z_m_s2);
   pos("max_tilt_deg", max_tilt_deg);
   if (max_tilt_deg >= 89.0) fail("max_tilt_deg", "must be below 89");
   pos("max_tilt_rate_deg_s", max_tilt_rate_deg_s);
   pos("min_thrust_N", min_thrust_N);
   pos("max_thrust_N", max_thrust_N);
-  if (max_thrust_N <= mass_kg * kGravity) fail("max_thrust_N", "must exceed the weight mass_kg * g");
-  if (min_thrust_N >= mass_kg * kGravity) fail("min_thrust_N", "must be below the weight mass_kg * g");
+  if (max_thrust_N <= mass_kg * kGravity)
+    fail("max_thrust_N", "must exceed the weight mass_kg * g");
+  if (min_thrust_N >= mass_kg * kGravity)
+    fail("min_thrust_N", "must be below the weight mass_kg * g");
   nonneg("yaw_gain", yaw_gain);
   pos("max_yaw_rate_deg_s", max_yaw_rate_deg_s);
 }
@@ -91,13 +103,47 @@ PositionController::PositionController(PositionControllerOptions options)
 
 void PositionController::reset() {
   integral_.setZero();
+  disturbance_.setZero();
+  last_thrust_N_.reset();
   last_t_ns_.reset();
   last_roll_ = 0.0;
   last_pitch_ = 0.0;
 }
 
 double PositionController::hover_thrust_estimate_N() const {
-  return options_.mass_kg * (kGravity + integral_.z());
+  return options_.mass_kg * (kGravity + integral_.z() - disturbance_.z());
+}
+
+void PositionController::observe(const VehicleStateEstimate& est, double dt) {
+  const auto& o = options_;
+  if (!o.disturbance_observer || dt <= 0.0 || !last_thrust_N_ || !est.specific_force_body ||
+      !est.specific_force_body->allFinite()) {
+    return;
+  }
+  // Unmodelled acceleration: a_true = R f + g and a_nominal = R ((T / m) e_z - D(v_body)) + g,
+  // so d = a_true - a_nominal = R (f - (T / m) e_z + D(v_body)). The previous step's thrust is
+  // the one that acted over the interval the IMU reading covers; the attitude is the
+  // estimate's (a tilt error of the estimate only rotates the small difference, not gravity).
+  // With the ground velocity in the drag term, d is the force of the wind, D (v_air - v) ~ -D w.
+  const Eigen::Vector3d v_body = est.R_world_body.inverse() * est.v_world;
+  const auto drag_of = [&v_body](int i, double c1, double c2) {
+    return (c1 + c2 * std::abs(v_body[i])) * v_body[i];
+  };
+  const Eigen::Vector3d drag(
+      drag_of(0, o.observer_drag_xy_per_s, o.observer_quadratic_drag_xy_per_m),
+      drag_of(1, o.observer_drag_xy_per_s, o.observer_quadratic_drag_xy_per_m),
+      drag_of(2, o.observer_drag_z_per_s, o.observer_quadratic_drag_z_per_m));
+  const Eigen::Vector3d raw =
+      est.R_world_body *
+      (*est.specific_force_body - Eigen::Vector3d(0.0, 0.0, *last_thrust_N_ / o.mass_kg) + drag);
+  // First-order low-pass, exact discretisation of d' = (raw - d) / tau.
+  const double a_xy = 1.0 - std::exp(-dt / o.observer_time_constant_xy_s);
+  const double a_z = 1.0 - std::exp(-dt / o.observer_time_constant_z_s);
+  disturbance_.head<2>() += a_xy * (raw.head<2>() - disturbance_.head<2>());
+  disturbance_.z() += a_z * (raw.z() - disturbance_.z());
+  limit_horizontal(disturbance_, o.observer_limit_xy_m_s2);
+  disturbance_.z() =
+      std::clamp(disturbance_.z(), -o.observer_limit_z_m_s2, o.observer_limit_z_m_s2);
 }
 
 ControllerOutput PositionController::update(const VehicleStateEstimate& est,
@@ -109,11 +155,13 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
   last_t_ns_ = est.t_ns;
 
   ControllerOutput out;
+  observe(est, dt);
+  out.disturbance_m_s2 = disturbance_;
   // Position P -> velocity command, with the reference's velocity as feed-forward.
   const Eigen::Vector3d e_p = ref.p_world - est.p_world;
-  Eigen::Vector3d v_cmd = ref.v_world + Eigen::Vector3d(o.position_gain_xy * e_p.x(),
-                                                        o.position_gain_xy * e_p.y(),
-                                                        o.position_gain_z * e_p.z());
+  Eigen::Vector3d v_cmd =
+      ref.v_world + Eigen::Vector3d(o.position_gain_xy * e_p.x(), o.position_gain_xy * e_p.y(),
+                                    o.position_gain_z * e_p.z());
   out.speed_limited = limit_horizontal(v_cmd, o.max_speed_xy_m_s);
   if (std::abs(v_cmd.z()) > o.max_speed_z_m_s) {
     v_cmd.z() = std::copysign(o.max_speed_z_m_s, v_cmd.z());
@@ -123,9 +171,12 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
 
   // Velocity PI -> acceleration command, with the reference's acceleration as feed-forward.
   const Eigen::Vector3d e_v = v_cmd - est.v_world;
-  Eigen::Vector3d a_cmd = ref.a_world + integral_ +
-                          Eigen::Vector3d(o.velocity_gain_xy * e_v.x(), o.velocity_gain_xy * e_v.y(),
-                                          o.velocity_gain_z * e_v.z());
+  // The observer's estimate is subtracted: the command asks for the acceleration the nominal
+  // model must produce so that the vehicle gets ref + PI despite d.
+  Eigen::Vector3d a_cmd =
+      ref.a_world + integral_ - disturbance_ +
+      Eigen::Vector3d(o.velocity_gain_xy * e_v.x(), o.velocity_gain_xy * e_v.y(),
+                      o.velocity_gain_z * e_v.z());
   const bool accel_limited = limit_horizontal(a_cmd, o.max_accel_xy_m_s2);
 
   // Thrust vector with gravity feed-forward, F = m (a + g e_z), then tilt and thrust limits:
@@ -152,17 +203,28 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
   out.acceleration_command_world = F / o.mass_kg - Eigen::Vector3d(0.0, 0.0, kGravity);
 
   // Anti-windup: integrate only while the output is not saturated in the error's direction
-  // (conditional integration), and clamp.
+  // (conditional integration), and clamp. With the observer the clamp holds the sum of the
+  // two disturbance terms, I - d, to the integral's limits, so that the integral cannot wind up
+  // against the observer (e.g. while the observer still converges) beyond what the integral
+  // alone could command.
   if (dt > 0.0) {
+    const double scale = o.disturbance_observer ? o.observer_integral_scale : 1.0;
     if (!(out.tilt_limited || accel_limited)) {
-      integral_.head<2>() += o.velocity_integral_gain_xy * e_v.head<2>() * dt;
+      integral_.head<2>() += scale * o.velocity_integral_gain_xy * e_v.head<2>() * dt;
+      Eigen::Vector3d total = integral_ - disturbance_;
+      limit_horizontal(total, o.integral_limit_xy_m_s2);
+      integral_.head<2>() = total.head<2>() + disturbance_.head<2>();
       limit_horizontal(integral_, o.integral_limit_xy_m_s2);
     }
     const bool z_saturated_up = out.thrust_limited && F.z() >= o.max_thrust_N * 0.999;
     const bool z_saturated_down = out.thrust_limited && F.z() <= o.min_thrust_N * 1.001;
     if (!(z_saturated_up && e_v.z() > 0.0) && !(z_saturated_down && e_v.z() < 0.0)) {
-      integral_.z() = std::clamp(integral_.z() + o.velocity_integral_gain_z * e_v.z() * dt,
-                                 -o.integral_limit_z_m_s2, o.integral_limit_z_m_s2);
+      const double z = integral_.z() + scale * o.velocity_integral_gain_z * e_v.z() * dt;
+      const double lo =
+          std::max(-o.integral_limit_z_m_s2, disturbance_.z() - o.integral_limit_z_m_s2);
+      const double hi =
+          std::min(o.integral_limit_z_m_s2, disturbance_.z() + o.integral_limit_z_m_s2);
+      integral_.z() = lo <= hi ? std::clamp(z, lo, hi) : 0.5 * (lo + hi);
     }
   }
   out.integral_m_s2 = integral_;
@@ -188,6 +250,7 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
   out.command.pitch_rad = pitch;
   out.command.yaw_rate_rad_s = std::clamp(yaw_rate, -max_yaw_rate, max_yaw_rate);
   out.command.thrust_N = thrust;
+  last_thrust_N_ = thrust;
   return out;
 }
 

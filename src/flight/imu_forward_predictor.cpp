@@ -46,6 +46,20 @@ std::optional<control::VehicleStateEstimate> ImuForwardPredictor::predict() cons
   e.v_world = x.v_world;
   e.R_world_body = SO3(x.q_world_body);
   e.omega_body = omega;
+  // The specific force for the controller's disturbance observer: the mean of the
+  // bias-corrected readings over the last kSpecificForceWindowNs (the control period), so that
+  // the 1 kHz samples between two control steps are averaged rather than one of them aliased.
+  if (!samples_.empty()) {
+    const TimeNs newest = samples_.back().t_ns;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int n = 0;
+    for (auto it = samples_.rbegin(); it != samples_.rend(); ++it) {
+      if (n > 0 && it->t_ns <= newest - kSpecificForceWindowNs) break;
+      sum += it->accel_m_s2;
+      ++n;
+    }
+    e.specific_force_body = sum / n - x.accel_bias_m_s2;
+  }
   return e;
 }
 

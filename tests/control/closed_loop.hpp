@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "kestrel/control/position_controller.hpp"
@@ -13,6 +14,7 @@
 #include "kestrel/control/pwm_output.hpp"
 #include "kestrel/control/safety.hpp"
 #include "kestrel/sim/simulated_vehicle.hpp"
+#include "kestrel/sim/vehicle_imu.hpp"
 
 namespace kestrel::test {
 
@@ -64,11 +66,17 @@ struct ClosedLoop {
   };
   /// Whether the controller runs at a time (false: the companion computer has hung).
   std::function<bool(double)> controller_alive = [](double) { return true; };
+  /// A noisy IMU for the specific force the disturbance observer reads (empty: the exact
+  /// specific force, as a perfect accelerometer at the centre of mass measures it).
+  std::optional<sim::VehicleImuSimulator> imu;
 
+  /// true_vehicle: the vehicle that flies where it is not the nominal one the flight
+  /// controller and the position controller are set up for (a model mismatch).
   explicit ClosedLoop(const sim::QuadrotorState& initial,
                       control::PositionControllerOptions controller_options = {},
-                      control::SafetyOptions safety_options = {})
-      : vehicle(vehicle_parameters, {}, initial),
+                      control::SafetyOptions safety_options = {},
+                      const std::optional<sim::QuadrotorParameters>& true_vehicle = std::nullopt)
+      : vehicle(true_vehicle.value_or(vehicle_parameters), {}, initial, 1000.0, vehicle_parameters),
         controller(controller_options),
         mapper(),
         output(mapper.motors_off()),
@@ -83,6 +91,16 @@ struct ClosedLoop {
     e.v_world = s.v_world;
     e.R_world_body = s.R_world_body;
     e.omega_body = s.omega_body;
+    // f = R^T (a - g): the specific force an accelerometer at the centre of mass reads.
+    e.specific_force_body =
+        s.R_world_body.inverse() * (s.a_world + Eigen::Vector3d(0.0, 0.0, control::kGravity));
+    return e;
+  }
+
+  /// The estimate: perfect, with the noisy IMU's specific force where one is set.
+  control::VehicleStateEstimate estimate() {
+    control::VehicleStateEstimate e = perfect_estimate(vehicle.state());
+    if (imu) e.specific_force_body = imu->sample(vehicle.state()).accel_m_s2;
     return e;
   }
 
@@ -94,7 +112,7 @@ struct ClosedLoop {
     control::SafetyDecision decision;
     while (t_ns < end_ns) {
       const double t_s = ns_to_s(t_ns);
-      const auto estimate = perfect_estimate(vehicle.state());
+      const auto estimate = this->estimate();
       if (controller_alive(t_s)) {
         const control::PositionReference mission = reference(t_s);
         decision = supervisor.update(t_ns, estimate, health(t_ns), mission,
@@ -105,7 +123,8 @@ struct ClosedLoop {
         } else {
           command = controller.update(estimate, decision.reference).command;
         }
-        command = control::bound_command(command, limits, controller.hover_thrust_estimate_N()).command;
+        command =
+            control::bound_command(command, limits, controller.hover_thrust_estimate_N()).command;
         watchdog.submit(t_ns, command);
       }
       const control::WatchdogOutput w = watchdog.output(t_ns);

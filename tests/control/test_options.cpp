@@ -26,7 +26,8 @@ void expect_same(const Options& a, const Options& b) {
 }
 
 TEST(ShippedConfig, VehicleYamlEqualsTheDefaults) {
-  expect_same(sim::QuadrotorParameters::load(kConfig / "vehicle_default.yaml"), sim::QuadrotorParameters{});
+  expect_same(sim::QuadrotorParameters::load(kConfig / "vehicle_default.yaml"),
+              sim::QuadrotorParameters{});
   expect_same(sim::FlightControllerModelOptions::load(kConfig / "vehicle_default.yaml"),
               sim::FlightControllerModelOptions{});
 }
@@ -36,6 +37,12 @@ TEST(ShippedConfig, ControllerYamlEqualsTheDefaults) {
   expect_same(control::PositionControllerOptions::load(file), control::PositionControllerOptions{});
   expect_same(control::PwmMapperOptions::load(file), control::PwmMapperOptions{});
   expect_same(control::SafetyOptions::load(file), control::SafetyOptions{});
+}
+
+TEST(ShippedConfig, ObserverYamlIsTheDefaultsWithTheObserverOn) {
+  control::PositionControllerOptions on;
+  on.disturbance_observer = true;
+  expect_same(control::PositionControllerOptions::load(kConfig / "controller_observer.yaml"), on);
 }
 
 TEST(ShippedConfig, ImuYamlEqualsTheDefaultNoise) {

@@ -85,5 +85,26 @@ TEST(ImuForwardPredictor, StartsOverFromEachFusedStateAndDropsOlderSamples) {
   EXPECT_LT((predictor.predict()->p_world - m.p(0.05)).norm(), 1e-12);
 }
 
+TEST(ImuForwardPredictor, GivesTheBiasCorrectedMeanSpecificForceOfTheLastControlPeriod) {
+  const KnownMotion m;
+  ImuForwardPredictor predictor(kG);
+  const TimeNs step = 1'000'000;
+  // Alternating +-1 m/s^2 on x over the 1 kHz samples: the 5 ms mean of the newest five
+  // (t = 96..100 ms: three +1 and two -1) is +0.2 m/s^2, not the newest sample alone.
+  for (TimeNs t = 0; t <= 100 * step; t += step) {
+    io::ImuSample s = m.imu(t);
+    s.accel_m_s2.x() += (t / step) % 2 == 0 ? 1.0 : -1.0;
+    predictor.add_imu(s);
+  }
+  predictor.set_fused(m.fused(40 * step));
+  const auto e = predictor.predict();
+  ASSERT_TRUE(e.has_value() && e->specific_force_body.has_value());
+  // The true specific force changes with the attitude within the window: tenths of a mm/s^2.
+  const Eigen::Vector3d truth = m.imu(98 * step).accel_m_s2 - m.accel_bias;
+  EXPECT_NEAR(e->specific_force_body->x() - truth.x(), 0.2, 5e-3);
+  EXPECT_NEAR(e->specific_force_body->y(), truth.y(), 5e-3);
+  EXPECT_NEAR(e->specific_force_body->z(), truth.z(), 5e-3);
+}
+
 }  // namespace
 }  // namespace kestrel::flight

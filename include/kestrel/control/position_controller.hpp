@@ -37,6 +37,42 @@ struct PositionControllerOptions {
   /// Covers that deficit (0.28 g = 2.75 m/s^2) with room for a downdraft.
   double integral_limit_z_m_s2 = 4.0;
   double max_accel_xy_m_s2 = 5.0;
+  // --- acceleration disturbance observer (docs/flight.md, "World") ---
+  /// Estimates the unmodelled acceleration d = R (f_imu - (T_prev / mass_kg) e_z + D(v_body))
+  /// (the IMU's specific force in the world minus what the previous thrust command and the
+  /// vehicle's own drag give on the nominal model; gravity cancels) and subtracts its low-passed
+  /// value from the acceleration command: the acceleration-feedback idea of INDI outer loops and of
+  /// PX4's hover-thrust estimator. Catches wind, a thrust deficit or a heavier vehicle within a few
+  /// time constants instead of the integral's seconds; the integral keeps what the observer cannot
+  /// see (attitude errors of the estimate). Needs VehicleStateEstimate::specific_force_body.
+  /// Off by default: it improves every realistic-world flight measured but costs the ideal
+  /// world's hover 0.4-0.7 mm RMS (docs/flight.md, "World"); config/controller_observer.yaml
+  /// switches it on.
+  bool disturbance_observer = false;
+  /// First-order low-pass of the raw estimate, horizontal: the 15x IMU noise of the realistic
+  /// world (1.9 m/s^2 per 1 kHz sample, 0.06 m/s^2/sqrt(Hz)) reaches the tilt command as
+  /// sigma = density / sqrt(4 tau) / g before the loop's own amplification; 0.4 s keeps it
+  /// near the tilt noise the estimator already causes (tests/control/test_disturbance_observer).
+  double observer_time_constant_xy_s = 0.4;
+  /// Vertical: faster, for the realistic world's thrust deficit at the start; its noise only
+  /// reaches the collective thrust.
+  double observer_time_constant_z_s = 0.2;
+  /// The vehicle's own body drag per unit mass, (c1 + c2 |v|) v per body axis (the default
+  /// frame's 0.30 / 0.40 N s/m and 0.09 / 0.12 N s^2/m^2 over 1.2 kg), part of the nominal
+  /// model, so that the observer estimates the wind's force but not the damping of the
+  /// vehicle's own motion: with that in the estimate, compensated 0.4 s late, a 1 m step
+  /// overshot by 14 cm instead of < 10.
+  double observer_drag_xy_per_s = 0.25;
+  double observer_drag_z_per_s = 0.33;
+  double observer_quadratic_drag_xy_per_m = 0.075;
+  double observer_quadratic_drag_z_per_m = 0.10;
+  /// Scale of both velocity-integral gains while the observer is on: the observer is the fast
+  /// disturbance estimate, so that the integral only has to take the slow residual; at full
+  /// gain the integral winds up on the observer's first time constants and unwinds along the
+  /// loop's slow pole (-0.59 /s), which is what made a step of wind take 4 s to settle.
+  double observer_integral_scale = 1.0;
+  double observer_limit_xy_m_s2 = 3.0;  ///< clamp of the horizontal estimate
+  double observer_limit_z_m_s2 = 4.0;   ///< clamp of the vertical estimate (as the integral)
   // --- thrust and attitude limits ---
   double max_tilt_deg = 30.0;          ///< below the flight controller's 45 deg (table C.3)
   double max_tilt_rate_deg_s = 180.0;  ///< slew limit of the roll/pitch commands
@@ -66,6 +102,16 @@ struct PositionControllerOptions {
     v("integral_limit_xy_m_s2", integral_limit_xy_m_s2);
     v("integral_limit_z_m_s2", integral_limit_z_m_s2);
     v("max_accel_xy_m_s2", max_accel_xy_m_s2);
+    v("disturbance_observer", disturbance_observer);
+    v("observer_time_constant_xy_s", observer_time_constant_xy_s);
+    v("observer_time_constant_z_s", observer_time_constant_z_s);
+    v("observer_drag_xy_per_s", observer_drag_xy_per_s);
+    v("observer_drag_z_per_s", observer_drag_z_per_s);
+    v("observer_quadratic_drag_xy_per_m", observer_quadratic_drag_xy_per_m);
+    v("observer_quadratic_drag_z_per_m", observer_quadratic_drag_z_per_m);
+    v("observer_integral_scale", observer_integral_scale);
+    v("observer_limit_xy_m_s2", observer_limit_xy_m_s2);
+    v("observer_limit_z_m_s2", observer_limit_z_m_s2);
     v("max_tilt_deg", max_tilt_deg);
     v("max_tilt_rate_deg_s", max_tilt_rate_deg_s);
     v("min_thrust_N", min_thrust_N);
@@ -81,6 +127,8 @@ struct ControllerOutput {
   Eigen::Vector3d velocity_command_world = Eigen::Vector3d::Zero();
   Eigen::Vector3d acceleration_command_world = Eigen::Vector3d::Zero();  ///< after the limits
   Eigen::Vector3d integral_m_s2 = Eigen::Vector3d::Zero();
+  /// The observer's low-passed unmodelled acceleration (zero when it is off).
+  Eigen::Vector3d disturbance_m_s2 = Eigen::Vector3d::Zero();
   bool tilt_limited = false;
   bool thrust_limited = false;
   bool speed_limited = false;
@@ -96,13 +144,21 @@ class PositionController {
 
   /// Forgets the integrators and the command history (e.g. on the ground, before take-off).
   void reset();
-  /// The thrust that holds the vehicle in hover as learnt by the z integrator: m (g + I_z).
+  /// The thrust that holds the vehicle in hover as learnt by the z integrator and the
+  /// observer: m (g + I_z - d_z).
   [[nodiscard]] double hover_thrust_estimate_N() const;
   [[nodiscard]] const PositionControllerOptions& options() const { return options_; }
+  /// The observer's current estimate of the unmodelled acceleration (world, m/s^2).
+  [[nodiscard]] const Eigen::Vector3d& disturbance_estimate_m_s2() const { return disturbance_; }
 
  private:
+  /// Updates the disturbance estimate from the estimate's specific force (see the options).
+  void observe(const VehicleStateEstimate& estimate, double dt);
+
   PositionControllerOptions options_;
   Eigen::Vector3d integral_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d disturbance_ = Eigen::Vector3d::Zero();
+  std::optional<double> last_thrust_N_;  // the previous step's thrust command
   std::optional<TimeNs> last_t_ns_;
   double last_roll_ = 0.0;
   double last_pitch_ = 0.0;

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <optional>
 #include <string>
 
 #include "kestrel/core/time.hpp"
@@ -24,6 +25,10 @@ struct VehicleStateEstimate {
   Eigen::Vector3d v_world = Eigen::Vector3d::Zero();  ///< m/s
   SO3 R_world_body;
   Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();  ///< rad/s (informational)
+  /// The IMU's specific force in the body frame (m/s^2, accelerometer minus its bias
+  /// estimate): what the disturbance observer compares with the commanded thrust. Empty where
+  /// the estimator has none (the observer then holds its estimate).
+  std::optional<Eigen::Vector3d> specific_force_body;
 };
 
 /// Position, velocity and attitude all finite (what the controller may act on).
@@ -34,9 +39,9 @@ inline bool finite_estimate(const VehicleStateEstimate& e) {
 
 /// The estimator's health as the safety supervisor sees it.
 struct EstimatorHealth {
-  bool estimate_valid = true;       ///< false: the filter has failed (diverged, not initialised)
+  bool estimate_valid = true;        ///< false: the filter has failed (diverged, not initialised)
   TimeNs last_vision_update_ns = 0;  ///< time of the last accepted odometry measurement
-  double position_sigma_m = 0.0;    ///< sqrt of the largest position variance (0 if unknown)
+  double position_sigma_m = 0.0;     ///< sqrt of the largest position variance (0 if unknown)
 };
 
 /// A point of the desired path with feed-forward terms.

@@ -16,6 +16,9 @@ namespace kestrel::flight {
 
 class ImuForwardPredictor {
  public:
+  /// The window of the specific-force mean: the 200 Hz control period.
+  static constexpr TimeNs kSpecificForceWindowNs = 5'000'000;
+
   explicit ImuForwardPredictor(double gravity_m_s2 = control::kGravity);
 
   /// Every IMU sample, in time order (kept until a fused state newer than it arrives).
@@ -25,7 +28,8 @@ class ImuForwardPredictor {
 
   /// The fused state integrated to the newest IMU sample with the filter's nominal step
   /// (StochasticCloningEkf::propagate_nominal, biases held); nullopt before the first fused
-  /// state. Body = IMU frame.
+  /// state. Body = IMU frame. Its specific_force_body is the mean bias-corrected
+  /// accelerometer reading over the last kSpecificForceWindowNs.
   [[nodiscard]] std::optional<control::VehicleStateEstimate> predict() const;
   /// How far predict() reaches past the fused state (0 before the first).
   [[nodiscard]] double lag_s() const;
