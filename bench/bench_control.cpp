@@ -28,7 +28,8 @@ BENCHMARK(BM_PositionControllerUpdate);
 void BM_QuadrotorDynamicsStep(benchmark::State& state) {
   const sim::QuadrotorParameters p;
   sim::Quadrotor q(p, sim::Quadrotor::hover_state(p, {0, 0, 1000}));
-  const Eigen::Vector4d cmd = Eigen::Vector4d::Constant(p.hover_rotor_speed_rad_s()) + Eigen::Vector4d(1, -1, 1, -1);
+  const Eigen::Vector4d cmd =
+      Eigen::Vector4d::Constant(p.hover_rotor_speed_rad_s()) + Eigen::Vector4d(1, -1, 1, -1);
   for (auto _ : state) {
     q.step(0.001, cmd);
     benchmark::DoNotOptimize(q.state());

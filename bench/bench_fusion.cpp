@@ -8,9 +8,9 @@
 
 namespace {
 
+using kestrel::Matrix6d;
 using kestrel::SE3;
 using kestrel::SO3;
-using kestrel::Matrix6d;
 using kestrel::Vector6d;
 using namespace kestrel::fusion;
 

@@ -1,6 +1,5 @@
 // Microbenchmarks of the image kernels and of the direct tracker on a 640x480 rendered pair.
 #include <benchmark/benchmark.h>
-
 #include <hwy/targets.h>
 
 #include <array>
@@ -12,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../tests/odometry/synthetic_rgbd.hpp"
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
 #include "kestrel/image/pyramid.hpp"
@@ -20,9 +20,8 @@
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
 #include "kestrel/odometry/alignment_kernels.hpp"
-#include "kestrel/odometry/robust_weights.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
-#include "../tests/odometry/synthetic_rgbd.hpp"
+#include "kestrel/odometry/robust_weights.hpp"
 
 namespace {
 
@@ -106,7 +105,8 @@ void BM_IntensityPyramid(benchmark::State& s) {
   cv::Mat in(480, 640, CV_32FC1);
   cv::randu(in, 0.0F, 1.0F);
   image::IntensityPyramid pyr;
-  const auto filter = s.range(0) == 0 ? image::PyramidFilter::kBox : image::PyramidFilter::kGaussian;
+  const auto filter =
+      s.range(0) == 0 ? image::PyramidFilter::kBox : image::PyramidFilter::kGaussian;
   for (auto _ : s) pyr.build(in, 5, filter);
 }
 BENCHMARK(BM_IntensityPyramid)->Arg(0)->Arg(1);
@@ -138,8 +138,14 @@ struct KernelData {
     return {x.data(), y.data(), z.data(), intensity.data(), kPoints};
   }
   kernels::LevelImage level() const {
-    return {image.ptr<float>(), static_cast<int>(image.step1()), image.cols, image.rows,
-            525.0F, 525.0F, 319.5F, 239.5F};
+    return {image.ptr<float>(),
+            static_cast<int>(image.step1()),
+            image.cols,
+            image.rows,
+            525.0F,
+            525.0F,
+            319.5F,
+            239.5F};
   }
 };
 const KernelData& kernel_data() {
@@ -397,9 +403,9 @@ const RealSequence& fr1_rpy() {
   static const RealSequence seq = [] {
     RealSequence out;
     const char* env = std::getenv("KESTREL_DATA_DIR");
-    const std::filesystem::path data =
-        (env != nullptr && *env != '\0') ? std::filesystem::path(env)
-                                          : std::filesystem::path(KESTREL_DEFAULT_DATA_DIR);
+    const std::filesystem::path data = (env != nullptr && *env != '\0')
+                                           ? std::filesystem::path(env)
+                                           : std::filesystem::path(KESTREL_DEFAULT_DATA_DIR);
     const auto folder = data / "tum/rgbd_dataset_freiburg1_rpy_part1";
     if (!std::filesystem::exists(folder)) {
       out.error = "shared data not found: " + folder.string();
@@ -442,8 +448,8 @@ void BM_TrackRealSequence(benchmark::State& s) {
   }
   const auto n = static_cast<double>(seq.frames.size());
   // CPU seconds per frame (printed with an SI prefix: "8.1m" = 8.1 ms).
-  s.counters["per_frame"] = benchmark::Counter(n, benchmark::Counter::kIsIterationInvariantRate |
-                                                     benchmark::Counter::kInvert);
+  s.counters["per_frame"] = benchmark::Counter(
+      n, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   s.counters["failures"] = failures;
   s.counters["fallbacks"] = fallbacks;
   s.counters["keyframes"] = keyframes;

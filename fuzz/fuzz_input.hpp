@@ -26,8 +26,8 @@ class InputFile {
  public:
   /// `name` is the file's name in the folder (its extension matters to some loaders).
   explicit InputFile(const std::string& name) {
-    const auto dir = std::filesystem::temp_directory_path() /
-                     ("kestrel-fuzz-" + std::to_string(::getpid()));
+    const auto dir =
+        std::filesystem::temp_directory_path() / ("kestrel-fuzz-" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     path_ = dir / name;
   }

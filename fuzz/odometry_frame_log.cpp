@@ -1,6 +1,7 @@
 // The per-frame log of `kestrel odometry --frames`, read back by `kestrel fuse --vo-frames`.
-#include "fuzz_input.hpp"
 #include "kestrel/io/odometry_frame_log.hpp"
+
+#include "fuzz_input.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static kestrel::fuzz::InputFile file("frames.csv");

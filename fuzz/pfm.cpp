@@ -1,6 +1,7 @@
 // PFM images (Middlebury disparity maps, `kestrel disparity` output read back).
-#include "fuzz_input.hpp"
 #include "kestrel/io/pfm.hpp"
+
+#include "fuzz_input.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   static kestrel::fuzz::InputFile file("disp.pfm");

@@ -1,10 +1,11 @@
 // The Bayer-in-YUYV stereo decoder (`kestrel capture --decode-file`, the camera stage of
 // `kestrel run`): the first bytes choose the options and row stride, the rest is the frame.
 // Sizes are kept small (views up to 64x64) so that each input runs in microseconds.
+#include "kestrel/driver/stereo_frame_decoder.hpp"
+
 #include <span>
 
 #include "fuzz_input.hpp"
-#include "kestrel/driver/stereo_frame_decoder.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace kestrel::driver;
@@ -33,8 +34,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // The first word's bytes are the two sensors' first samples, the last row's last word
     // their last ones.
     const std::size_t step = bytes_per_line ? bytes_per_line : options.packed_row_bytes();
-    const std::size_t last = step * static_cast<std::size_t>(options.height - 1) +
-                             options.packed_row_bytes() - 2;
+    const std::size_t last =
+        step * static_cast<std::size_t>(options.height - 1) + options.packed_row_bytes() - 2;
     const auto lb = static_cast<std::size_t>(options.left_byte);
     if (mosaic.left.at<std::uint8_t>(0, 0) != frame[lb] ||
         mosaic.right.at<std::uint8_t>(0, 0) != frame[1 - lb] ||

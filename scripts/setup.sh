@@ -14,6 +14,7 @@ packages=(
   libgtest-dev libgmock-dev  # tests
   libbenchmark-dev         # bench/
   clang-14 libclang-rt-14-dev llvm-14  # fuzz/: libFuzzer, ASan/UBSan runtimes, llvm-symbolizer
+  clang-format clang-tidy  # scripts/lint.sh: formatting and the odometry's function sizes
   libopen3d-dev            # bench/: Open3D's RGB-D odometry, a peer in scripts/bench_odometry.sh
   # the Python module (python/): pybind11, the interpreter's headers, numpy, pytest (its tests)
   pybind11-dev python3-dev python3-pybind11 python3-numpy python3-pytest

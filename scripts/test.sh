@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what is needed, builds, and runs every test: the release build, then the asan
+# Installs what is needed, checks the formatting and the odometry's function sizes
+# (scripts/lint.sh), builds, and runs every test: the release build, then the asan
 # preset (AddressSanitizer + UndefinedBehaviorSanitizer), then the install, downstream and
 # package checks of the release build (scripts/check_install.sh), then the SIMD kernel tests
 # built for aarch64 and run under qemu (scripts/check_arm64.sh --quick; KESTREL_ARM64=full or
@@ -10,6 +11,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 start=$(date +%s)
+echo "=== lint: clang-format, function sizes ==="
+scripts/lint.sh
 for preset in release asan; do
   echo "=== build: $preset ==="
   scripts/build.sh "$preset"

@@ -11,15 +11,15 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/driver/stereo_capture.hpp"
 #include "kestrel/driver/stereo_frame_decoder.hpp"
 #include "kestrel/driver/stereo_recorder.hpp"
 #include "kestrel/driver/v4l2_camera.hpp"
 #include "kestrel/io/output_guard.hpp"
-#include "interrupt.hpp"
-#include "progress.hpp"
 #include "option_checks.hpp"
+#include "progress.hpp"
 
 namespace kestrel::cli {
 
@@ -110,7 +110,8 @@ void list_devices(const CaptureArgs& a) {
 void decode_file(const CaptureArgs& a) {
   if (a.out.empty()) throw InputError("capture: --decode-file needs --out");
   if (std::filesystem::is_directory(a.decode_file)) {
-    throw InputError(a.decode_file + ": is a folder; --decode-file takes one raw frame file "
+    throw InputError(a.decode_file +
+                     ": is a folder; --decode-file takes one raw frame file "
                      "(raw/<t_ns>.bin of `capture --raw`)");
   }
   const driver::StereoFrameDecoder decoder(decoder_options(a));
@@ -260,10 +261,10 @@ void add_capture_command(CLI::App& app) {
                   "Output folder (created; refused if it holds other files unless --force)");
   auto* frames = cmd->add_option("--frames", args->frames,
                                  "Stop after this many stereo frames (default: Ctrl-C)")
-                    ->check(whole_in(1, 100000000, "a whole number of frames, 1 to 100000000"));
+                     ->check(whole_in(1, 100000000, "a whole number of frames, 1 to 100000000"));
   auto* duration = cmd->add_option("--duration", args->duration_s,
                                    "Stop after this many seconds of frames (camera clock)")
-                      ->check(number_in(0.0, 86400.0, "a duration in (0, 86400] s", true));
+                       ->check(number_in(0.0, 86400.0, "a duration in (0, 86400] s", true));
   frames->excludes(duration);
   cmd->add_option("--timeout", args->timeout_s,
                   "End the capture when no frame comes for this many seconds")
@@ -280,10 +281,9 @@ void add_capture_command(CLI::App& app) {
   auto* width = cmd->add_option("--width", args->width, "Width of each view = of the YUYV frame")
                     ->capture_default_str()
                     ->check(whole_in(2, 8192, "a whole number of pixels from 2 to 8192"));
-  auto* height =
-      cmd->add_option("--height", args->height, "Height of each view")
-          ->capture_default_str()
-          ->check(whole_in(2, 8192, "a whole number of pixels from 2 to 8192"));
+  auto* height = cmd->add_option("--height", args->height, "Height of each view")
+                     ->capture_default_str()
+                     ->check(whole_in(2, 8192, "a whole number of pixels from 2 to 8192"));
   auto* left_byte = cmd->add_option("--left-byte", args->left_byte,
                                     "Byte (0 or 1) of each 16-bit word holding the left sensor")
                         ->capture_default_str()
@@ -305,7 +305,7 @@ void add_capture_command(CLI::App& app) {
   auto* decode = cmd->add_option("--decode-file", args->decode_file,
                                  "Decode one packed frame from this file into --out "
                                  "(left.png, right.png) instead of capturing")
-                    ->check(CLI::ExistingFile);
+                     ->check(CLI::ExistingFile);
   decode->excludes(list);
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->callback([args, device] {

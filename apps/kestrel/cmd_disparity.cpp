@@ -71,8 +71,9 @@ Calibration load_calibration(const fs::path& path) {
       return c;
     }
     if (!(root.IsMap() && root["stereo_pair"])) {
-      throw InputError(path, "stereo", "is missing (expected a `stereo:` map for a rectified rig "
-                                       "or a `stereo_pair:` map for a raw pair)");
+      throw InputError(path, "stereo",
+                       "is missing (expected a `stereo:` map for a rectified rig "
+                       "or a `stereo_pair:` map for a raw pair)");
     }
     c.rectifier.emplace(sensor::load_stereo_calibration(path));
   }
@@ -105,7 +106,8 @@ struct MatchRun {
 /// Checks the outputs, reads and (with a raw calibration) rectifies the pair, matches it and
 /// writes the disparity PFM and, as asked, the depth and colour PNGs.
 void match_and_write(DisparityArgs& args, const Calibration& calib, const MatchRun& run) {
-  if (args.out.extension() != ".pfm") throw InputError("--out: the disparity is written as PFM (*.pfm)");
+  if (args.out.extension() != ".pfm")
+    throw InputError("--out: the disparity is written as PFM (*.pfm)");
   if (calib.rig && args.depth_out.empty()) {
     args.depth_out = args.out;
     args.depth_out.replace_extension(".depth.png");
@@ -156,7 +158,8 @@ void run_sgm(DisparityArgs& args, const CLI::App& cmd) {
   for (const char* block_only : {"--block", "--cost", "--prefilter", "--uniqueness", "--texture",
                                  "--min-depth", "--max-depth", "--options"}) {
     if (cmd.count(block_only) > 0) {
-      throw InputError(std::string(block_only) + " is a block-matcher option; --matcher sgm "
+      throw InputError(std::string(block_only) +
+                       " is a block-matcher option; --matcher sgm "
                        "takes --sgm-options, --paths, --lr-max-diff, --speckle and --no-subpixel");
     }
   }
@@ -200,8 +203,10 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
     if (cmd.count("--texture") > 0) o.texture_threshold = f.texture_threshold;
     if (cmd.count("--min-depth") > 0) o.min_depth_m = f.min_depth_m;
     if (cmd.count("--max-depth") > 0) o.max_depth_m = f.max_depth_m;
-    if (cmd.count("--cost") == 0) args.cost = o.cost == sensor::MatchingCost::kSad ? "sad" : "census";
-    if (cmd.count("--prefilter") == 0) args.prefilter = o.prefilter == sensor::Prefilter::kNone ? "none" : "xsobel";
+    if (cmd.count("--cost") == 0)
+      args.cost = o.cost == sensor::MatchingCost::kSad ? "sad" : "census";
+    if (cmd.count("--prefilter") == 0)
+      args.prefilter = o.prefilter == sensor::Prefilter::kNone ? "none" : "xsobel";
     args.options = o;
   }
   if (!args.matcher.empty()) {
@@ -223,10 +228,14 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
   for (const char* sgm_only : {"--sgm-options", "--paths", "--speckle"}) {
     if (cmd.count(sgm_only) > 0) throw InputError(std::string(sgm_only) + " needs --matcher sgm");
   }
-  if (args.cost == "census") args.options.cost = sensor::MatchingCost::kCensus;
-  else if (args.cost != "sad") throw InputError("--cost: expected sad or census, got '" + args.cost + "'");
-  if (args.prefilter == "none") args.options.prefilter = sensor::Prefilter::kNone;
-  else if (args.prefilter != "xsobel") throw InputError("--prefilter: expected xsobel or none");
+  if (args.cost == "census")
+    args.options.cost = sensor::MatchingCost::kCensus;
+  else if (args.cost != "sad")
+    throw InputError("--cost: expected sad or census, got '" + args.cost + "'");
+  if (args.prefilter == "none")
+    args.options.prefilter = sensor::Prefilter::kNone;
+  else if (args.prefilter != "xsobel")
+    throw InputError("--prefilter: expected xsobel or none");
   if (args.no_subpixel) args.options.subpixel = false;
   gpu::Backend backend = gpu::Backend::kCpu;
   try {
@@ -257,10 +266,11 @@ void run_disparity(DisparityArgs& args, const CLI::App& cmd) {
 
 void add_disparity_command(CLI::App& app) {
   auto args = std::make_shared<DisparityArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "disparity", "Stereo matching on one pair (block matching, or semi-global with "
-                   "--matcher sgm): the left view's disparity as PFM (+inf = none) and, with "
-                   "--calib, a 16-bit depth PNG.");
+  CLI::App* cmd =
+      app.add_subcommand("disparity",
+                         "Stereo matching on one pair (block matching, or semi-global with "
+                         "--matcher sgm): the left view's disparity as PFM (+inf = none) and, with "
+                         "--calib, a 16-bit depth PNG.");
   auto& o = args->options;
   cmd->add_option("--left", args->left, "left image")->required();
   cmd->add_option("--right", args->right, "right image")->required();
@@ -281,7 +291,8 @@ void add_disparity_command(CLI::App& app) {
                   "sad (fast block matching, the default), census (block matching on census "
                   "costs) or sgm (semi-global matching: denser, slower; docs/stereo.md)");
   cmd->add_option("--cost", args->cost, "block matcher cost: sad or census")->capture_default_str();
-  cmd->add_option("--prefilter", args->prefilter, "SAD prefilter: xsobel or none")->capture_default_str();
+  cmd->add_option("--prefilter", args->prefilter, "SAD prefilter: xsobel or none")
+      ->capture_default_str();
   cmd->add_option("--lr-max-diff", o.lr_max_diff, "left-right check tolerance [px], -1 = off")
       ->capture_default_str()
       ->check(whole_in(-1, 1024, "a whole number of pixels from 0 to 1024, or -1 for off"));
@@ -300,7 +311,8 @@ void add_disparity_command(CLI::App& app) {
                   "block matcher: cpu, cuda (an error without a CUDA device) or auto (cuda "
                   "when there is one); see docs/gpu.md")
       ->capture_default_str();
-  cmd->add_option("--options", args->options_file, "block matcher options YAML (flags given override it)");
+  cmd->add_option("--options", args->options_file,
+                  "block matcher options YAML (flags given override it)");
   cmd->add_option("--sgm-options", args->sgm_options_file,
                   "semi-global matcher options YAML (--matcher sgm; flags given override it)");
   cmd->add_option("--paths", args->sgm.paths, "--matcher sgm: directions summed, 4 or 8")
@@ -311,9 +323,11 @@ void add_disparity_command(CLI::App& app) {
       ->capture_default_str()
       ->check(whole_in(0, 100000, "a whole number of pixels from 0 (off) to 100000"));
   cmd->add_option("--out", args->out, "disparity PFM")->required();
-  cmd->add_option("--depth", args->depth_out, "depth PNG (default with --calib: OUT with .depth.png)");
+  cmd->add_option("--depth", args->depth_out,
+                  "depth PNG (default with --calib: OUT with .depth.png)");
   cmd->add_option("--color", args->color_out, "false-colour PNG of the disparity");
-  cmd->add_flag("--force", args->force, "overwrite existing output files (images carry no mark of what wrote them)");
+  cmd->add_flag("--force", args->force,
+                "overwrite existing output files (images carry no mark of what wrote them)");
   cmd->callback([args, cmd] { run_disparity(*args, *cmd); });
 }
 

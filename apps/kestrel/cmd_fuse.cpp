@@ -10,6 +10,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
@@ -20,7 +21,6 @@
 #include "kestrel/io/text_lines.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/yaml_file.hpp"
-#include "interrupt.hpp"
 #include "option_checks.hpp"
 
 namespace kestrel::cli {
@@ -59,14 +59,19 @@ std::map<TimeNs, Matrix6d> read_vo_covariances(const fs::path& path) {
     const TimeNs t = io::parse_seconds_ns(f[0], reader, 0);
     Matrix6d c = Matrix6d::Zero();
     if (f.size() == 7) {
-      for (int i = 0; i < 6; ++i) c(i, i) = io::parse_double(f[static_cast<std::size_t>(i + 1)], reader, static_cast<std::size_t>(i + 1));
+      for (int i = 0; i < 6; ++i)
+        c(i, i) = io::parse_double(f[static_cast<std::size_t>(i + 1)], reader,
+                                   static_cast<std::size_t>(i + 1));
     } else {
-      for (int i = 0; i < 36; ++i) c(i / 6, i % 6) = io::parse_double(f[static_cast<std::size_t>(i + 1)], reader, static_cast<std::size_t>(i + 1));
+      for (int i = 0; i < 36; ++i)
+        c(i / 6, i % 6) = io::parse_double(f[static_cast<std::size_t>(i + 1)], reader,
+                                           static_cast<std::size_t>(i + 1));
     }
     if ((c - c.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(1.0, c.cwiseAbs().maxCoeff())) {
       reader.fail("covariance is not symmetric");
     }
-    if (Eigen::LLT<Matrix6d>(c).info() != Eigen::Success) reader.fail("covariance is not positive-definite");
+    if (Eigen::LLT<Matrix6d>(c).info() != Eigen::Success)
+      reader.fail("covariance is not positive-definite");
     out[t] = c;
   }
   return out;
@@ -79,7 +84,8 @@ std::optional<SE3> read_T_body_cam(const fs::path& calib, const fs::path& camera
     if (!root[key]) continue;
     std::vector<double> m;
     try {
-      m = root[key]["data"] ? root[key]["data"].as<std::vector<double>>() : root[key].as<std::vector<double>>();
+      m = root[key]["data"] ? root[key]["data"].as<std::vector<double>>()
+                            : root[key].as<std::vector<double>>();
     } catch (const YAML::Exception&) {
       throw InputError(calib, key, "must be a list of 16 numbers (or a map with data:)");
     }
@@ -90,7 +96,8 @@ std::optional<SE3> read_T_body_cam(const fs::path& calib, const fs::path& camera
   }
   if (!camera_calib.empty()) {
     const io::CameraFile cam = io::load_camera_file(camera_calib);
-    if (!cam.T_body_sensor) throw InputError(camera_calib, "T_BS", "missing (camera-to-body extrinsics)");
+    if (!cam.T_body_sensor)
+      throw InputError(camera_calib, "T_BS", "missing (camera-to-body extrinsics)");
     return cam.T_body_sensor;
   }
   return std::nullopt;
@@ -159,11 +166,16 @@ void run_fuse(const FuseArgs& a) {
     throw InputError("--vo-frames and --vo-cov exclude each other (the log has the covariances)");
   }
   io::OutputGuard(kFuseCommand, a.force)
-      .input("--imu", a.imu_path).input("--vo", a.vo_path).input("--vo-cov", a.vo_cov_path)
-      .input("--vo-frames", a.vo_frames_path).input("--calib", a.calib_path)
-      .input("--camera-calib", a.camera_calib_path).input("--options", a.options_path)
+      .input("--imu", a.imu_path)
+      .input("--vo", a.vo_path)
+      .input("--vo-cov", a.vo_cov_path)
+      .input("--vo-frames", a.vo_frames_path)
+      .input("--calib", a.calib_path)
+      .input("--camera-calib", a.camera_calib_path)
+      .input("--options", a.options_path)
       .input("--init", a.init_path)
-      .text_file("--out", a.out_path).text_file("--states", a.states_path);
+      .text_file("--out", a.out_path)
+      .text_file("--states", a.states_path);
   if (!(a.vo_sigma_p_m > 0.0) || !(a.vo_sigma_rot_deg > 0.0)) {
     throw InputError("--vo-sigma-pos and --vo-sigma-rot-deg must be positive");
   }
@@ -188,7 +200,8 @@ void run_fuse(const FuseArgs& a) {
   if (!a.vo_cov_path.empty()) covs = read_vo_covariances(a.vo_cov_path);
   const double sr = a.vo_sigma_rot_deg * M_PI / 180.0;
   Vector6d def;
-  def << Eigen::Vector3d::Constant(a.vo_sigma_p_m * a.vo_sigma_p_m), Eigen::Vector3d::Constant(sr * sr);
+  def << Eigen::Vector3d::Constant(a.vo_sigma_p_m * a.vo_sigma_p_m),
+      Eigen::Vector3d::Constant(sr * sr);
 
   std::vector<fusion::RelativePoseMeasurement> meas;
   if (!a.vo_frames_path.empty()) {
@@ -298,11 +311,11 @@ void run_fuse(const FuseArgs& a) {
   consume(engine.flush(a.imu_rate));
   if (interrupted) {
     io::write_tum_trajectory(a.out_path, fused, kFuseCommand, a.force);
-    throw_interrupted(interrupt, "after " + std::to_string(mi) + " of " +
-                                     std::to_string(meas.size()) + " odometry measurements; wrote " +
-                                     a.out_path.string() + " (" + std::to_string(fused.size()) +
-                                     " poses)" + (a.states_path.empty() ? "" : " and " +
-                                     a.states_path.string()));
+    throw_interrupted(interrupt,
+                      "after " + std::to_string(mi) + " of " + std::to_string(meas.size()) +
+                          " odometry measurements; wrote " + a.out_path.string() + " (" +
+                          std::to_string(fused.size()) + " poses)" +
+                          (a.states_path.empty() ? "" : " and " + a.states_path.string()));
   }
   const fusion::FusionCounters& counters = engine.counters();
   if (imu_read == 0) {
@@ -363,10 +376,10 @@ void run_fuse(const FuseArgs& a) {
   std::cout << "rejected: " << (rejected.empty() ? "nothing" : rejected) << "\n";
   {
     const auto& P = engine.filter().covariance();
-    std::cout << "camera-IMU time offset t_d: "
-              << 1e3 * engine.filter().state().time_offset_s << " ms (1-sigma "
-              << 1e3 * std::sqrt(std::max(0.0, P(fusion::idx::kTd, fusion::idx::kTd)))
-              << " ms" << (options.estimate_time_offset ? ", estimated" : ", fixed") << ")\n";
+    std::cout << "camera-IMU time offset t_d: " << 1e3 * engine.filter().state().time_offset_s
+              << " ms (1-sigma "
+              << 1e3 * std::sqrt(std::max(0.0, P(fusion::idx::kTd, fusion::idx::kTd))) << " ms"
+              << (options.estimate_time_offset ? ", estimated" : ", fixed") << ")\n";
   }
   std::cout << "fused poses: " << fused.size() << " (" << dropout_outputs
             << " flagged vo_dropout), accepted updates: " << engine.counters().updates_accepted
@@ -403,7 +416,8 @@ void add_fuse_command(CLI::App& app) {
       ->check(number_in(0.0, 1e6, "a factor in (0, 1000000]", true));
   cmd->add_option("--calib", a->calib_path,
                   "IMU sensor YAML (EuRoC imu0/sensor.yaml: noise densities, random walks, "
-                  "rate); may hold T_body_cam (4x4) for the odometry camera")->required();
+                  "rate); may hold T_body_cam (4x4) for the odometry camera")
+      ->required();
   cmd->add_option("--camera-calib", a->camera_calib_path,
                   "camera sensor YAML with T_BS (EuRoC cam0/sensor.yaml)");
   cmd->add_option("--options", a->options_path, "fusion options YAML (see docs/fusion.md)");
@@ -424,7 +438,8 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_option("--vo-sigma-pos", a->vo_sigma_p_m, "odometry sigma without --vo-cov [m]")
       ->capture_default_str()
       ->check(number_in(0.0, 100.0, "a standard deviation in (0, 100] m", true));
-  cmd->add_option("--vo-sigma-rot-deg", a->vo_sigma_rot_deg, "odometry sigma without --vo-cov [deg]")
+  cmd->add_option("--vo-sigma-rot-deg", a->vo_sigma_rot_deg,
+                  "odometry sigma without --vo-cov [deg]")
       ->capture_default_str()
       ->check(number_in(0.0, 180.0, "a standard deviation in (0, 180] deg", true));
   cmd->add_flag("--force", a->force, "overwrite files not written by `kestrel fuse`");

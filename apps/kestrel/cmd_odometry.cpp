@@ -56,8 +56,8 @@ struct OdometryArgs {
   std::filesystem::path matcher_options;
   std::string matcher;                // --matcher sad|census|sgm; empty: the options' cost
   std::filesystem::path sgm_options;  // --sgm-options (--matcher sgm)
-  int block = 0;          // 0: from the matcher options (default 9)
-  int max_disparity = 0;  // 0: ditto (default 64)
+  int block = 0;                      // 0: from the matcher options (default 9)
+  int max_disparity = 0;              // 0: ditto (default 64)
   int min_disparity = -1;
 };
 

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/output_guard.hpp"
@@ -20,7 +21,6 @@
 #include "kestrel/sim/scenes.hpp"
 #include "kestrel/sim/sequence_writer.hpp"
 #include "kestrel/sim/smooth_trajectory.hpp"
-#include "interrupt.hpp"
 #include "option_checks.hpp"
 #include "progress.hpp"
 
@@ -132,7 +132,8 @@ void run_render(const RenderArgs& a) {
 
   {
     io::OutputGuard outputs(sim::SequenceWriter::kCommand, a.force);
-    for (const auto& [option, value] : {std::pair{"--camera", a.camera}, {"--noise", a.noise},
+    for (const auto& [option, value] : {std::pair{"--camera", a.camera},
+                                        {"--noise", a.noise},
                                         {"--render-options", a.render_options}}) {
       if (std::filesystem::is_regular_file(value)) outputs.input(option, value);
     }

@@ -13,12 +13,12 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/driver/v4l2_camera.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/pipeline/pipeline.hpp"
-#include "interrupt.hpp"
 
 namespace kestrel::cli {
 namespace {
@@ -54,12 +54,13 @@ void print_controller(const pipeline::PipelineReport& r) {
       ++modes[std::string(control::to_string(c.mode))];
     }
   }
-  std::cout << "controller: " << r.controller.size() << " outputs: " << flown
-            << " states flown, " << stale << " stale (older than the watchdog timeout, not flown), "
-            << silent << " without a state (watchdog); " << tripped
-            << " watchdog failsafe, " << motors_off << " motors off; safety modes:";
+  std::cout << "controller: " << r.controller.size() << " outputs: " << flown << " states flown, "
+            << stale << " stale (older than the watchdog timeout, not flown), " << silent
+            << " without a state (watchdog); " << tripped << " watchdog failsafe, " << motors_off
+            << " motors off; safety modes:";
   for (const auto& [mode, n] : modes) std::cout << " " << mode << " " << n;
-  std::cout << "\n  PWM NOT SENT: no flight controller is attached; the pulses go to the CSV only\n";
+  std::cout
+      << "\n  PWM NOT SENT: no flight controller is attached; the pulses go to the CSV only\n";
   if (r.controller_disarmed) {
     std::cout << "  DISARMED: the states are not fused (camera source, no IMU), so no flight is "
                  "commanded: every output is the motors-off PWM (controller.allow_unfused: true "

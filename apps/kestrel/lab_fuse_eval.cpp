@@ -51,12 +51,12 @@ void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const Interrup
   lab::SimulationOptions sim;
   sim.duration_s = a.duration_s;
   sim.vo_keyframes = !a.frame_to_frame;  // the odometry as the EuRoC runs above make it
-  fusion::FusionOptions o;  // the simulated IMU is as modelled: no inflation
+  fusion::FusionOptions o;               // the simulated IMU is as modelled: no inflation
   o.estimate_time_offset = estimate;
   std::cout.setf(std::ios::fixed);
   std::cout.precision(3);
-  std::cout << "Time offset t_d in simulation (" << a.offset_flights << " flights x " << sim.duration_s
-            << " s, prior 0 +- " << 1e3 * o.init_sigma_time_offset_s << " ms"
+  std::cout << "Time offset t_d in simulation (" << a.offset_flights << " flights x "
+            << sim.duration_s << " s, prior 0 +- " << 1e3 * o.init_sigma_time_offset_s << " ms"
             << (estimate ? "" : ", NOT estimated (--no-time-offset-state)")
             << (sim.vo_keyframes ? ", keyframe odometry" : ", frame to frame")
             << "; targets: within 1 ms in 10 s, fused error within 10 % of the zero-offset run)\n";
@@ -77,8 +77,8 @@ void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const Interrup
       worst_conv = std::max(worst_conv, r.converged_after_s < 0.0 ? 1e9 : r.converged_after_s);
       std::cout << " [t_d " << 1e3 * r.final_estimate_s << " +- " << 1e3 * r.final_sigma_s
                 << " ms, within 1 ms from " << r.converged_after_s << " s on (first at "
-                << r.first_within_s << " s), error x" << ratio
-                << ", after 10 s x" << ratio_after << "]";
+                << r.first_within_s << " s), error x" << ratio << ", after 10 s x" << ratio_after
+                << "]";
     }
     std::cout << "\n    within 1 ms by 10 s and from then on: " << converged << " of "
               << a.offset_flights << " (latest: ";
@@ -87,8 +87,8 @@ void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const Interrup
     } else {
       std::cout << worst_conv << " s";
     }
-    std::cout << "); fused error within 10 %: " << within10
-              << " of " << a.offset_flights << " (after 10 s: " << within10_after << ")\n";
+    std::cout << "); fused error within 10 %: " << within10 << " of " << a.offset_flights
+              << " (after 10 s: " << within10_after << ")\n";
   }
 }
 

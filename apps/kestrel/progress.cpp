@@ -31,8 +31,8 @@ void ProgressBar::update(std::size_t done) {
     const int filled = static_cast<int>(frac * kWidth);
     const double eta = rate > 0 ? static_cast<double>(total_ - done) / rate : 0.0;
     std::fprintf(stderr, "\r%s [%-*s] %zu/%zu %.1f/s eta %.0fs   ", label_.c_str(), kWidth,
-                 std::string(static_cast<std::size_t>(filled), '#').c_str(), done, total_,
-                 rate, eta);
+                 std::string(static_cast<std::size_t>(filled), '#').c_str(), done, total_, rate,
+                 eta);
   }
   std::fflush(stderr);
 }

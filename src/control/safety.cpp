@@ -22,27 +22,36 @@ AttitudeThrustCommand level(double thrust_N) {
 
 std::string_view to_string(SafetyMode mode) {
   switch (mode) {
-    case SafetyMode::kNominal: return "nominal";
-    case SafetyMode::kImuHold: return "imu_hold";
-    case SafetyMode::kLanding: return "landing";
-    case SafetyMode::kBlindDescent: return "blind_descent";
-    case SafetyMode::kLanded: return "landed";
+    case SafetyMode::kNominal:
+      return "nominal";
+    case SafetyMode::kImuHold:
+      return "imu_hold";
+    case SafetyMode::kLanding:
+      return "landing";
+    case SafetyMode::kBlindDescent:
+      return "blind_descent";
+    case SafetyMode::kLanded:
+      return "landed";
   }
   return "?";
 }
 
 std::string_view to_string(WatchdogState state) {
   switch (state) {
-    case WatchdogState::kActive: return "active";
-    case WatchdogState::kTripped: return "tripped";
-    case WatchdogState::kCutOff: return "cut_off";
+    case WatchdogState::kActive:
+      return "active";
+    case WatchdogState::kTripped:
+      return "tripped";
+    case WatchdogState::kCutOff:
+      return "cut_off";
   }
   return "?";
 }
 
 void SafetyOptions::validate() const {
   auto pos = [](const char* name, double v) {
-    if (!(std::isfinite(v) && v > 0.0)) throw InputError(std::string("safety option '") + name + "': must be positive");
+    if (!(std::isfinite(v) && v > 0.0))
+      throw InputError(std::string("safety option '") + name + "': must be positive");
   };
   pos("vision_timeout_s", vision_timeout_s);
   pos("imu_hold_timeout_s", imu_hold_timeout_s);
@@ -54,7 +63,8 @@ void SafetyOptions::validate() const {
   pos("landed_hold_s", landed_hold_s);
   pos("blind_descent_thrust_fraction", blind_descent_thrust_fraction);
   if (blind_descent_thrust_fraction >= 1.0) {
-    throw InputError("safety option 'blind_descent_thrust_fraction': must be below 1 (else it climbs)");
+    throw InputError(
+        "safety option 'blind_descent_thrust_fraction': must be below 1 (else it climbs)");
   }
   pos("blind_descent_max_s", blind_descent_max_s);
 }
@@ -98,7 +108,7 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
   // in this flight.
   if (mode_ != SafetyMode::kLanded && mode_ != SafetyMode::kBlindDescent && estimate_failed) {
     enter(SafetyMode::kBlindDescent, t_ns,
-          !health.estimate_valid ? "estimator reports failure"
+          !health.estimate_valid  ? "estimator reports failure"
           : !finite_estimate(est) ? "estimate is not finite"
                                   : "position uncertainty above max_position_sigma_m");
     blind_thrust_N_ = o.blind_descent_thrust_fraction * hover;
@@ -120,7 +130,8 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
         enter(SafetyMode::kNominal, t_ns, "");
       } else if (ns_to_s(t_ns - mode_since_ns_) > o.imu_hold_timeout_s) {
         landing_start_z_ = est.p_world.z();
-        enter(SafetyMode::kLanding, t_ns, "odometry lost for longer than imu_hold_timeout_s: landing");
+        enter(SafetyMode::kLanding, t_ns,
+              "odometry lost for longer than imu_hold_timeout_s: landing");
       }
       break;
     case SafetyMode::kLanding:
@@ -225,7 +236,8 @@ BoundedCommand bound_command(const AttitudeThrustCommand& c, const CommandLimits
 CommandWatchdog::CommandWatchdog(WatchdogOptions options)
     : options_(options), hover_thrust_N_(options.hover_thrust_N) {
   auto pos = [](const char* name, double v) {
-    if (!(std::isfinite(v) && v > 0.0)) throw InputError(std::string("watchdog option '") + name + "': must be positive");
+    if (!(std::isfinite(v) && v > 0.0))
+      throw InputError(std::string("watchdog option '") + name + "': must be positive");
   };
   pos("command_timeout_s", options_.command_timeout_s);
   pos("descent_thrust_fraction", options_.descent_thrust_fraction);
@@ -239,7 +251,8 @@ void CommandWatchdog::submit(TimeNs t_ns, const AttitudeThrustCommand& command) 
   if (last_submit_ns_ && std::isfinite(command.thrust_N)) {
     // Learn the hover thrust from the vertical part of what the controller commands.
     const double dt = std::clamp(ns_to_s(t_ns - *last_submit_ns_), 0.0, 0.1);
-    const double vertical = command.thrust_N * std::cos(command.roll_rad) * std::cos(command.pitch_rad);
+    const double vertical =
+        command.thrust_N * std::cos(command.roll_rad) * std::cos(command.pitch_rad);
     if (std::isfinite(vertical) && vertical > 0.0) {
       hover_thrust_N_ += dt / options_.hover_learning_time_s * (vertical - hover_thrust_N_);
     }

@@ -8,10 +8,7 @@
 #include "kestrel/io/trajectory_io.hpp"
 
 namespace kestrel::eval {
-namespace {
-
-
-}  // namespace
+namespace {}  // namespace
 
 Evaluation evaluate(const Trajectory& gt, const Trajectory& est, const EvaluationOptions& options) {
   Evaluation e;

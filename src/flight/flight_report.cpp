@@ -29,7 +29,8 @@ std::string fixed(double value, int decimals) {
   return buffer;
 }
 
-std::vector<double> column(const FlightResult& r, const std::function<double(const FlightSample&)>& f) {
+std::vector<double> column(const FlightResult& r,
+                           const std::function<double(const FlightSample&)>& f) {
   std::vector<double> values;
   values.reserve(r.samples.size());
   for (const FlightSample& s : r.samples) values.push_back(f(s));
@@ -112,12 +113,14 @@ std::vector<fs::path> write_flight_plots(const fs::path& dir, const FlightResult
   altitude.add("true", t, column(result, x(2)));
   altitude.add("estimated", t, column(result, e(2)));
   eval::Plot status;
-  status.title = "odometry and safety (0 nominal, 1 IMU hold, 2 landing, 3 blind descent, 4 landed)";
+  status.title =
+      "odometry and safety (0 nominal, 1 IMU hold, 2 landing, 3 blind descent, 4 landed)";
   status.x_label = "time [s]";
   status.y_label = "state";
   status.height_px = 250;
   status.y_range = eval::AxisRange{-0.2, 4.2};
-  status.add("odometry ok", t, column(result, [](const FlightSample& s) { return s.vo_ok ? 1.0 : 0.0; }));
+  status.add("odometry ok", t,
+             column(result, [](const FlightSample& s) { return s.vo_ok ? 1.0 : 0.0; }));
   status.add("safety mode", t,
              column(result, [](const FlightSample& s) { return static_cast<double>(s.mode); }));
   const fs::path errors_path = dir / "errors.png";

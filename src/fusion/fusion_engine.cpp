@@ -65,8 +65,8 @@ std::string FusionOptions::describe() const {
     << " accel_noise=" << noise.accel_noise << " accel_walk=" << noise.accel_walk
     << " imu_noise_inflation=" << imu_noise_inflation << " time_offset=" << time_offset_s
     << "s estimate_time_offset=" << (estimate_time_offset ? "on" : "off")
-    << " sigma_time_offset=" << init_sigma_time_offset_s
-    << " g=" << gravity_m_s2 << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
+    << " sigma_time_offset=" << init_sigma_time_offset_s << " g=" << gravity_m_s2
+    << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
     << "s max_imu_gap=" << max_imu_gap_s << "s accel_range=" << accel_range_m_s2
     << "m/s^2 gyro_range=" << gyro_range_rad_s << "rad/s imu_horizon=" << imu_horizon_s
     << "s max_speed=" << max_speed_m_s << "m/s max_jump=" << max_position_jump_m
@@ -111,7 +111,8 @@ void FusionOptions::validate() const {
   positive(init_sigma_gyro_bias_rad_s, "init_sigma_gyro_bias_rad_s");
   positive(init_sigma_accel_bias_m_s2, "init_sigma_accel_bias_m_s2");
   if (!(gate_probability >= 0.0 && gate_probability < 1.0)) {
-    throw InputError("gate_probability: must be in [0, 1), got " + std::to_string(gate_probability));
+    throw InputError("gate_probability: must be in [0, 1), got " +
+                     std::to_string(gate_probability));
   }
   if (!(reorder_window_s >= 0.0)) throw InputError("reorder_window_s: must be >= 0");
 }
@@ -120,7 +121,8 @@ Matrix15d FusionOptions::initial_covariance() const {
   Vector15d s;
   s << Vector3d::Constant(init_sigma_p_m), init_sigma_roll_pitch_rad, init_sigma_roll_pitch_rad,
       init_sigma_yaw_rad, Vector3d::Constant(init_sigma_v_m_s),
-      Vector3d::Constant(init_sigma_gyro_bias_rad_s), Vector3d::Constant(init_sigma_accel_bias_m_s2);
+      Vector3d::Constant(init_sigma_gyro_bias_rad_s),
+      Vector3d::Constant(init_sigma_accel_bias_m_s2);
   // Roll/pitch/yaw sigmas are world-frame angles; the error state is local, but for a
   // diagonal prior with equal roll/pitch sigma the difference is only the yaw axis' tilt.
   return s.array().square().matrix().asDiagonal();
@@ -240,9 +242,8 @@ FusionEngine::FusionEngine(FusionOptions options)
     : options_(std::move(options)),
       ekf_(validated(options_).filter_noise(), Vector3d(0.0, 0.0, -options_.gravity_m_s2)) {
   ekf_.set_first_estimate_jacobians(options_.first_estimate_jacobians);
-  gate_chi2_ = options_.gate_probability > 0.0
-                   ? chi_square_quantile(options_.gate_probability, 6.0)
-                   : 0.0;
+  gate_chi2_ =
+      options_.gate_probability > 0.0 ? chi_square_quantile(options_.gate_probability, 6.0) : 0.0;
 }
 
 void FusionEngine::initialize(const NominalState& state) {
@@ -347,7 +348,8 @@ void FusionEngine::propagate_to(TimeNs t_ns) {
   ekf_.set_time(t_ns);
 }
 
-void FusionEngine::process_imu(const io::ImuSample& s, bool imu_rate, std::vector<FusedState>& out) {
+void FusionEngine::process_imu(const io::ImuSample& s, bool imu_rate,
+                               std::vector<FusedState>& out) {
   // Two samples with one time stamp: the second is not a new reading of the interval.
   if (s.t_ns == last_imu_t_ns_) {
     ++counters_.imu_duplicate;

@@ -29,9 +29,12 @@ Quaterniond right_perturb(const Quaterniond& q, const Vector3d& dtheta) {
 
 std::string_view to_string(UpdateOutcome outcome) {
   switch (outcome) {
-    case UpdateOutcome::kAccepted: return "accepted";
-    case UpdateOutcome::kRejectedGate: return "rejected by the chi-square gate";
-    case UpdateOutcome::kRejectedInvalid: return "rejected: invalid measurement";
+    case UpdateOutcome::kAccepted:
+      return "accepted";
+    case UpdateOutcome::kRejectedGate:
+      return "rejected by the chi-square gate";
+    case UpdateOutcome::kRejectedInvalid:
+      return "rejected: invalid measurement";
   }
   return "unknown";
 }
@@ -64,10 +67,9 @@ VectorXs NominalState::boxminus(const NominalState& o) const {
 
 bool NominalState::all_finite() const {
   return p_world.allFinite() && q_world_body.coeffs().allFinite() && v_world.allFinite() &&
-         gyro_bias_rad_s.allFinite() && accel_bias_m_s2.allFinite() &&
-         p_clone_world.allFinite() && q_world_clone.coeffs().allFinite() &&
-         std::isfinite(time_offset_s) && omega_body.allFinite() && v_clone_body.allFinite() &&
-         omega_clone_body.allFinite();
+         gyro_bias_rad_s.allFinite() && accel_bias_m_s2.allFinite() && p_clone_world.allFinite() &&
+         q_world_clone.coeffs().allFinite() && std::isfinite(time_offset_s) &&
+         omega_body.allFinite() && v_clone_body.allFinite() && omega_clone_body.allFinite();
 }
 
 void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d& covariance,
@@ -84,9 +86,8 @@ void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d
   clone();
 }
 
-NominalState StochasticCloningEkf::propagate_nominal(const NominalState& x,
-                                                     const ImuReading& m, double dt,
-                                                     const Vector3d& g) {
+NominalState StochasticCloningEkf::propagate_nominal(const NominalState& x, const ImuReading& m,
+                                                     double dt, const Vector3d& g) {
   // Thesis eq. 4.2 integrated over one step with the reading held constant: the attitude by
   // the exponential map (exact for a constant rate), velocity and position by the Taylor
   // series of constant acceleration (eq. 4.6 is the first-order part of it). The reading is
@@ -106,8 +107,7 @@ NominalState StochasticCloningEkf::propagate_nominal(const NominalState& x,
   return r;
 }
 
-Matrix15d StochasticCloningEkf::transition(const NominalState& x, const ImuReading& m,
-                                           double dt) {
+Matrix15d StochasticCloningEkf::transition(const NominalState& x, const ImuReading& m, double dt) {
   // Exact Jacobian of propagate_nominal() in the error state; to first order in dt it is
   // dF = I + cF dt with the continuous cF of the error dynamics
   //   dp' = dv, dtheta' = -[w]x dtheta - db_g, dv' = -R [a]x dtheta - R db_a.
@@ -202,8 +202,7 @@ void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
   Pn.diagonal() += process_noise(noise_, dt).diagonal();
   Pcc = 0.5 * (Pn + Pn.transpose());
   constexpr int kRest = idx::kDim - idx::kCore;
-  const Eigen::Matrix<double, idx::kCore, kRest> cross =
-      F * P_.topRightCorner<idx::kCore, kRest>();
+  const Eigen::Matrix<double, idx::kCore, kRest> cross = F * P_.topRightCorner<idx::kCore, kRest>();
   P_.topRightCorner<idx::kCore, kRest>() = cross;
   P_.bottomLeftCorner<kRest, idx::kCore>() = cross.transpose();
 }
@@ -394,7 +393,10 @@ double chi_square_quantile(double probability, double dof) {
   double lo = 0.0, hi = dof + 20.0 * std::sqrt(2.0 * dof) + 50.0;
   for (int i = 0; i < 200; ++i) {
     const double mid = 0.5 * (lo + hi);
-    if (gamma_p(0.5 * dof, 0.5 * mid) < probability) lo = mid; else hi = mid;
+    if (gamma_p(0.5 * dof, 0.5 * mid) < probability)
+      lo = mid;
+    else
+      hi = mid;
   }
   return 0.5 * (lo + hi);
 }

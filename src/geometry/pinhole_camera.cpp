@@ -8,8 +8,7 @@
 
 namespace kestrel {
 
-PinholeCamera::PinholeCamera(const PinholeIntrinsics& k, const RadTanDistortion& d)
-    : k_(k), d_(d) {
+PinholeCamera::PinholeCamera(const PinholeIntrinsics& k, const RadTanDistortion& d) : k_(k), d_(d) {
   if (!(k.fx > 0.0) || !(k.fy > 0.0) || !std::isfinite(k.fx) || !std::isfinite(k.fy)) {
     throw std::invalid_argument("PinholeCamera: focal lengths must be positive and finite");
   }
@@ -97,8 +96,8 @@ std::string PinholeCamera::describe() const {
   os << "pinhole " << k_.width << "x" << k_.height << " fx=" << k_.fx << " fy=" << k_.fy
      << " cx=" << k_.cx << " cy=" << k_.cy;
   if (has_distortion()) {
-    os << " radtan=[" << d_.k1 << ", " << d_.k2 << ", " << d_.p1 << ", " << d_.p2 << ", "
-       << d_.k3 << "]";
+    os << " radtan=[" << d_.k1 << ", " << d_.k2 << ", " << d_.p1 << ", " << d_.p2 << ", " << d_.k3
+       << "]";
   }
   return os.str();
 }

@@ -8,8 +8,7 @@ namespace kestrel::quat {
 Quat multiply(const Quat& q1, const Quat& q2) {
   const double s1 = q1[0], a1 = q1[1], b1 = q1[2], c1 = q1[3];
   const double s2 = q2[0], a2 = q2[1], b2 = q2[2], c2 = q2[3];
-  return {s1 * s2 - a1 * a2 - b1 * b2 - c1 * c2,
-          s1 * a2 + a1 * s2 + b1 * c2 - c1 * b2,
+  return {s1 * s2 - a1 * a2 - b1 * b2 - c1 * c2, s1 * a2 + a1 * s2 + b1 * c2 - c1 * b2,
           s1 * b2 - a1 * c2 + b1 * s2 + c1 * a2,
           // Eq. A.6 labels this row s3 by mistake; this is the k component.
           s1 * c2 + a1 * b2 - b1 * a2 + c1 * s2};
@@ -32,8 +31,8 @@ Eigen::Vector3d rotate(const Quat& q, const Eigen::Vector3d& p) {
 Eigen::Matrix3d to_rotation_matrix(const Quat& q) {
   const double s = q[0], a = q[1], b = q[2], c = q[3];
   Eigen::Matrix3d R;
-  R << s * s + a * a - b * b - c * c, 2 * (a * b - s * c), 2 * (a * c + s * b),
-      2 * (a * b + s * c), s * s - a * a + b * b - c * c, 2 * (b * c - s * a),
+  R << s * s + a * a - b * b - c * c, 2 * (a * b - s * c), 2 * (a * c + s * b), 2 * (a * b + s * c),
+      s * s - a * a + b * b - c * c, 2 * (b * c - s * a),
       // Eq. B.1's (3,2) entry is misprinted; it is 2 s a + 2 b c.
       2 * (a * c - s * b), 2 * (s * a + b * c), s * s - a * a - b * b + c * c;
   return R;
@@ -55,10 +54,18 @@ Quat from_rotation_matrix(const Eigen::Matrix3d& R) {
   const double f = 0.25 / big;
   Quat q;
   switch (k) {
-    case 0: q = {big, sa * f, sb * f, sc * f}; break;
-    case 1: q = {sa * f, big, ab * f, ac * f}; break;
-    case 2: q = {sb * f, ab * f, big, bc * f}; break;
-    default: q = {sc * f, ac * f, bc * f, big}; break;
+    case 0:
+      q = {big, sa * f, sb * f, sc * f};
+      break;
+    case 1:
+      q = {sa * f, big, ab * f, ac * f};
+      break;
+    case 2:
+      q = {sb * f, ab * f, big, bc * f};
+      break;
+    default:
+      q = {sc * f, ac * f, bc * f, big};
+      break;
   }
   if (q[0] < 0) q = -q;
   return q.normalized();

@@ -27,9 +27,7 @@ SE3 SE3::inverse() const {
   return {R_inv, -(R_inv * t_)};
 }
 
-SE3 SE3::operator*(const SE3& other) const {
-  return {so3_ * other.so3_, so3_ * other.t_ + t_};
-}
+SE3 SE3::operator*(const SE3& other) const { return {so3_ * other.so3_, so3_ * other.t_ + t_}; }
 
 Eigen::Matrix4d SE3::matrix() const {
   Eigen::Matrix4d T = Eigen::Matrix4d::Identity();

@@ -91,8 +91,14 @@ int PhotometricStep::warp(const SE3& T_cur_ref, float alpha, float beta) {
   const auto t0 = std::chrono::steady_clock::now();
   const kernels::PointsView points{ref_.x.data(), ref_.y.data(), ref_.z.data(),
                                    ref_.intensity.data(), ref_.count};
-  const kernels::LevelImage image{image_.ptr<float>(), static_cast<int>(image_.step1()),
-                                  image_.cols, image_.rows, ref_.fx, ref_.fy, ref_.cx, ref_.cy};
+  const kernels::LevelImage image{image_.ptr<float>(),
+                                  static_cast<int>(image_.step1()),
+                                  image_.cols,
+                                  image_.rows,
+                                  ref_.fx,
+                                  ref_.fy,
+                                  ref_.cx,
+                                  ref_.cy};
   const int inside =
       kernels::warp_residuals(points, image, T, alpha, beta, residual_.data(), valid_.data());
   timing_.compute_ms = ms_since(t0);
@@ -124,8 +130,8 @@ NormalEquations PhotometricStep::normal_equations(float inv_sigma, float tukey_c
   const auto t0 = std::chrono::steady_clock::now();
   // DirectTracker's weight / cost / inlier pass and normal equations.
   const int n = ref_.count;
-  const kernels::WeightSums sums =
-      kernels::tukey_weights(residual_.data(), valid_.data(), n, inv_sigma, tukey_c, weight_.data());
+  const kernels::WeightSums sums = kernels::tukey_weights(residual_.data(), valid_.data(), n,
+                                                          inv_sigma, tukey_c, weight_.data());
   for (int i = n; i < kernels::pad_to_lanes(n); ++i) weight_[static_cast<std::size_t>(i)] = 0.0F;
   const float* J[8];
   for (std::size_t k = 0; k < 8; ++k) J[k] = ref_.jac[k].data();

@@ -32,7 +32,8 @@ double positive_field(const YAML::Node& root, const char* key, const fs::path& p
 }  // namespace
 
 ImuNoise load_imu_noise(const fs::path& sensor_yaml) {
-  if (!fs::exists(sensor_yaml)) throw InputError(sensor_yaml.string() + ": no such IMU sensor file");
+  if (!fs::exists(sensor_yaml))
+    throw InputError(sensor_yaml.string() + ": no such IMU sensor file");
   const YAML::Node root = load_yaml_file(sensor_yaml);
   ImuNoise n;
   n.gyro_noise_density = positive_field(root, "gyroscope_noise_density", sensor_yaml);

@@ -138,8 +138,7 @@ void claim_output_dir(const fs::path& dir, std::string_view command, bool force)
   if (!out) throw InputError(marker.string() + ": cannot write");
 }
 
-OutputGuard::OutputGuard(std::string_view command, bool force)
-    : command_(command), force_(force) {}
+OutputGuard::OutputGuard(std::string_view command, bool force) : command_(command), force_(force) {}
 
 OutputGuard& OutputGuard::input(std::string option, const fs::path& path) {
   if (!path.empty()) inputs_.emplace_back(std::move(option), path);
@@ -150,12 +149,13 @@ void OutputGuard::check_against_inputs(const std::string& option, const fs::path
                                        bool is_folder) {
   for (const auto& [name, in] : inputs_) {
     if (same(path, in)) {
-      throw InputError(option + " " + path.string() + ": is the input " + name + " " +
-                       in.string() + "; refusing to write over an input (choose another name)");
+      throw InputError(option + " " + path.string() + ": is the input " + name + " " + in.string() +
+                       "; refusing to write over an input (choose another name)");
     }
     if (is_folder && inside(in, path)) {
       throw InputError(option + " " + path.string() + ": holds the input " + name + " " +
-                       in.string() + "; refusing to write into a folder of inputs (choose "
+                       in.string() +
+                       "; refusing to write into a folder of inputs (choose "
                        "another folder)");
     }
   }

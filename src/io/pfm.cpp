@@ -30,9 +30,12 @@ cv::Mat read_pfm(const fs::path& path) {
   if (!in) throw InputError(path.string() + ": cannot open");
   const std::string magic = next_token(in, path, "magic number");
   int channels = 0;
-  if (magic == "Pf") channels = 1;
-  else if (magic == "PF") channels = 3;
-  else throw InputError(path.string() + ": not a PFM file (magic '" + magic + "', expected Pf or PF)");
+  if (magic == "Pf")
+    channels = 1;
+  else if (magic == "PF")
+    channels = 3;
+  else
+    throw InputError(path.string() + ": not a PFM file (magic '" + magic + "', expected Pf or PF)");
   int width = 0, height = 0;
   double scale = 0.0;
   try {
@@ -52,7 +55,8 @@ cv::Mat read_pfm(const fs::path& path) {
   in.get();  // the single whitespace character that ends the header
   const bool file_little = scale < 0.0;
   const bool swap = file_little != (std::endian::native == std::endian::little);
-  const std::size_t row_bytes = static_cast<std::size_t>(width) * static_cast<std::size_t>(channels) * 4U;
+  const std::size_t row_bytes =
+      static_cast<std::size_t>(width) * static_cast<std::size_t>(channels) * 4U;
   // The data must be in the file before the image is allocated: a 20-byte header claiming
   // 65536x65536 colour pixels asked for 48 GiB (found by fuzz/pfm.cpp).
   const std::streamoff data_start = in.tellg();
@@ -60,7 +64,8 @@ cv::Mat read_pfm(const fs::path& path) {
   const std::streamoff file_end = in.tellg();
   in.seekg(data_start);
   if (data_start < 0 || file_end < data_start ||
-      static_cast<std::size_t>(file_end - data_start) / row_bytes < static_cast<std::size_t>(height)) {
+      static_cast<std::size_t>(file_end - data_start) / row_bytes <
+          static_cast<std::size_t>(height)) {
     throw InputError(path.string() + ": PFM data ends early (expected " + std::to_string(width) +
                      "x" + std::to_string(height) + "x" + std::to_string(channels) + " floats)");
   }
@@ -68,9 +73,8 @@ cv::Mat read_pfm(const fs::path& path) {
   std::vector<char> row(row_bytes);
   for (int y = height - 1; y >= 0; --y) {
     if (!in.read(row.data(), static_cast<std::streamsize>(row_bytes))) {
-      throw InputError(path.string() + ": PFM data ends early (expected " +
-                       std::to_string(width) + "x" + std::to_string(height) + "x" +
-                       std::to_string(channels) + " floats)");
+      throw InputError(path.string() + ": PFM data ends early (expected " + std::to_string(width) +
+                       "x" + std::to_string(height) + "x" + std::to_string(channels) + " floats)");
     }
     auto* out = image.ptr<float>(y);
     for (std::size_t i = 0; i < row_bytes / 4U; ++i) {
@@ -96,21 +100,24 @@ void write_pfm(const fs::path& path, const cv::Mat& image, bool force) {
     char magic[2] = {0, 0};
     probe.read(magic, 2);
     if (!(magic[0] == 'P' && (magic[1] == 'f' || magic[1] == 'F'))) {
-      throw InputError(path.string() + ": exists and is not a PFM file; not overwritten "
-                                       "(use --force)");
+      throw InputError(path.string() +
+                       ": exists and is not a PFM file; not overwritten "
+                       "(use --force)");
     }
   }
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw InputError(path.string() + ": cannot write");
   const int channels = image.channels();
-  out << (channels == 1 ? "Pf" : "PF") << "\n" << image.cols << " " << image.rows << "\n"
+  out << (channels == 1 ? "Pf" : "PF") << "\n"
+      << image.cols << " " << image.rows << "\n"
       << (std::endian::native == std::endian::little ? "-1.0" : "1.0") << "\n";
   std::vector<float> row(static_cast<std::size_t>(image.cols) * static_cast<std::size_t>(channels));
   for (int y = image.rows - 1; y >= 0; --y) {
     std::memcpy(row.data(), image.ptr<float>(y), row.size() * sizeof(float));
     if (channels == 3) {
-      for (int x = 0; x < image.cols; ++x) std::swap(row[3 * static_cast<std::size_t>(x)], row[3 * static_cast<std::size_t>(x) + 2]);
+      for (int x = 0; x < image.cols; ++x)
+        std::swap(row[3 * static_cast<std::size_t>(x)], row[3 * static_cast<std::size_t>(x) + 2]);
     }
     out.write(reinterpret_cast<const char*>(row.data()),
               static_cast<std::streamsize>(row.size() * sizeof(float)));

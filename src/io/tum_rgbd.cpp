@@ -23,8 +23,9 @@ std::vector<TimedFile> read_tum_file_list(const fs::path& list_file) {
                   " fields");
     }
     const auto t = parse_seconds_to_ns(fields[0]);
-    if (!t) reader.fail("time stamp is not a decimal number of seconds: '" +
-                        std::string(fields[0]) + "'");
+    if (!t)
+      reader.fail("time stamp is not a decimal number of seconds: '" + std::string(fields[0]) +
+                  "'");
     if (!out.empty() && *t <= out.back().t_ns) {
       reader.fail("time stamps must increase (this one is not after the previous line's)");
     }

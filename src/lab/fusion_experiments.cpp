@@ -591,12 +591,12 @@ std::string format_result(const EurocExperimentResult& r) {
     s << "not measured";
   }
   s << "; reference: " << r.bias_reference << "\n  final gyro bias "
-    << r.gyro_bias_final.transpose() << "\n  camera-IMU time offset at the end: "
-    << 1e3 * r.time_offset_final_s << " ms (1-sigma " << 1e3 * r.time_offset_sigma_final_s
-    << " ms)\n"
+    << r.gyro_bias_final.transpose()
+    << "\n  camera-IMU time offset at the end: " << 1e3 * r.time_offset_final_s << " ms (1-sigma "
+    << 1e3 * r.time_offset_sigma_final_s << " ms)\n"
     << "  2 s gap: max position error in the gap " << r.gap_max_error_m << " m (growth "
-    << r.gap_error_growth_m << " m; issue: median over draws <= 0.3), max over the run " << r.gap_run_max_error_m
-    << " m, vo_dropout flagged " << (r.gap_flag_raised ? "yes" : "NO")
+    << r.gap_error_growth_m << " m; issue: median over draws <= 0.3), max over the run "
+    << r.gap_run_max_error_m << " m, vo_dropout flagged " << (r.gap_flag_raised ? "yes" : "NO")
     << ", 1-sigma position in the gap up to " << r.gap_max_sigma_p_m << " m\n";
   if (const auto& d = r.gap_decomposition; d.measured) {
     s << "  gap start, filter - ground truth: velocity " << d.dv.transpose() << " m/s (1-sigma "
@@ -679,9 +679,10 @@ std::string format_summary(const EurocSeedSummary& s) {
   };
   o << s.name << ", " << s.draws << " noise draws (seeds):\n";
   line("fused/chained ratio", s.ratio, s.draws, "<= 0.7");
-  o << "    target median <= 0.4: " << yes(s.ratio.median <= 0.4) << "; worst <= 0.7: "
-    << yes(s.ratio.max <= 0.7) << "; never above 1: " << yes(s.ratio_above_one == 0) << " ("
-    << s.ratio_above_one << " above)\n"
+  o << "    target median <= 0.4: " << yes(s.ratio.median <= 0.4)
+    << "; worst <= 0.7: " << yes(s.ratio.max <= 0.7)
+    << "; never above 1: " << yes(s.ratio_above_one == 0) << " (" << s.ratio_above_one
+    << " above)\n"
     << "    (mean fused " << s.mean_fused_m << " m / mean chained " << s.mean_chained_m
     << " m = " << s.mean_fused_m / s.mean_chained_m << ")\n";
   if (s.bias_draws > 0) {
@@ -697,8 +698,8 @@ std::string format_summary(const EurocSeedSummary& s) {
                                                 static_cast<double>(s.gap_samples)
                                           : 0.0;
   o << "  gap samples inside the filter's 3-sigma position bound: " << s.gap_samples_inside_3sigma
-    << " of " << s.gap_samples << " (" << 100.0 * inside << " %); target >= 95 %: "
-    << yes(inside >= 0.95) << "\n";
+    << " of " << s.gap_samples << " (" << 100.0 * inside
+    << " %); target >= 95 %: " << yes(inside >= 0.95) << "\n";
   return o.str();
 }
 

@@ -142,8 +142,7 @@ SimulatedRun simulate_run(const SimulatedFlight& flight, const SimulationOptions
         const SE3 T_true = T_world_cam_prev.inverse() * T_world_cam;
         m.T_ref_cur = SE3::exp(-xi) * T_true;
         ++frames_on_ref;
-        m.starts_new_reference = !sim.vo_keyframes ||
-                                 T_true.so3().log().norm() > max_rot_rad ||
+        m.starts_new_reference = !sim.vo_keyframes || T_true.so3().log().norm() > max_rot_rad ||
                                  T_true.translation().norm() > sim.vo_keyframe_max_trans_m ||
                                  frames_on_ref >= sim.vo_keyframe_max_frames;
         run.odometry.push_back(m);
@@ -316,8 +315,8 @@ TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::Fusion
   }
   res.converged_after_s = ever_inside ? last_outside_s : -1.0;
   res.final_estimate_s = engine.filter().state().time_offset_s;
-  res.final_sigma_s = std::sqrt(std::max(
-      0.0, engine.filter().covariance()(fusion::idx::kTd, fusion::idx::kTd)));
+  res.final_sigma_s =
+      std::sqrt(std::max(0.0, engine.filter().covariance()(fusion::idx::kTd, fusion::idx::kTd)));
   res.fused_rmse_m = n ? std::sqrt(se / static_cast<double>(n)) : 0.0;
   res.fused_rmse_after_m = n_after ? std::sqrt(se_after / static_cast<double>(n_after)) : 0.0;
   return res;

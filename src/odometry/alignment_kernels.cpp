@@ -90,8 +90,8 @@ struct Projector {
     // implicit default constructor without the NEON target's `#pragma GCC target "+crypto"`
     // (Highway 1.0.3), and it then may not inline Vec128's always_inline constructor
     // ("target specific option mismatch").
-    return Projected{u, v, hn::Sub(u, hn::ConvertTo(df, x0)), hn::Sub(v, hn::ConvertTo(df, y0)),
-                     x0, y0, m};
+    return Projected{
+        u, v, hn::Sub(u, hn::ConvertTo(df, x0)), hn::Sub(v, hn::ConvertTo(df, y0)), x0, y0, m};
   }
 };
 

@@ -12,19 +12,22 @@ namespace kestrel::pipeline {
 
 std::string_view to_string(ControllerInput input) {
   switch (input) {
-    case ControllerInput::kState: return "state";
-    case ControllerInput::kStaleState: return "stale";
-    case ControllerInput::kNoState: return "none";
+    case ControllerInput::kState:
+      return "state";
+    case ControllerInput::kStaleState:
+      return "stale";
+    case ControllerInput::kNoState:
+      return "none";
   }
   return "?";
 }
 
 const std::vector<std::string>& controller_csv_columns() {
   static const std::vector<std::string> columns{
-      "now_ns",        "state_t_ns",     "input",           "fusion_flags", "safety_mode",
-      "watchdog",      "disarmed",       "x_ref_m",         "y_ref_m",      "z_ref_m",
-      "yaw_ref_rad",   "roll_rad",       "pitch_rad",       "yaw_rate_rad_s", "thrust_N",
-      "pwm_roll_us",   "pwm_pitch_us",   "pwm_throttle_us", "pwm_yaw_us"};
+      "now_ns",      "state_t_ns",   "input",           "fusion_flags",   "safety_mode",
+      "watchdog",    "disarmed",     "x_ref_m",         "y_ref_m",        "z_ref_m",
+      "yaw_ref_rad", "roll_rad",     "pitch_rad",       "yaw_rate_rad_s", "thrust_N",
+      "pwm_roll_us", "pwm_pitch_us", "pwm_throttle_us", "pwm_yaw_us"};
   return columns;
 }
 

@@ -70,8 +70,9 @@ SO3 parse_vehicle_axes(const std::vector<std::string>& axes) {
   Eigen::Matrix3d R;
   for (int i = 0; i < 3; ++i) R.col(i) = axis_of(axes[static_cast<std::size_t>(i)]);
   if (std::abs(R.determinant() - 1.0) > 1e-9) {
-    throw InputError("[forward, left, up] must be three different axes forming a right-handed "
-                     "frame (forward x left = up)");
+    throw InputError(
+        "[forward, left, up] must be three different axes forming a right-handed "
+        "frame (forward x left = up)");
   }
   return SO3::from_matrix(R);
 }

@@ -72,9 +72,9 @@ ControllerRecord ControllerStage::on_state(const fusion::FusedState& s, TimeNs n
     last_vision_update_ns_ = s.t_ns;
   }
   // Odometry accepted by the filter (EKF), or a tracked pose passed through (camera source).
-  const bool vision = fused_ ? (s.flags & fusion::kFlagUpdated) != 0U &&
-                                   (s.flags & fusion::kFlagVoDropout) == 0U
-                             : s.at_odometry;
+  const bool vision =
+      fused_ ? (s.flags & fusion::kFlagUpdated) != 0U && (s.flags & fusion::kFlagVoDropout) == 0U
+             : s.at_odometry;
   if (vision) last_vision_update_ns_ = s.t_ns;
   health.last_vision_update_ns = last_vision_update_ns_;
   // Pass-through states have no covariance (NaN): unknown, which EstimatorHealth spells 0.
@@ -96,9 +96,8 @@ ControllerRecord ControllerStage::on_state(const fusion::FusedState& s, TimeNs n
       supervisor_.update(now_ns, e, health, mission, controller_.hover_thrust_estimate_N());
   control::AttitudeThrustCommand command =
       d.override_command ? *d.override_command : controller_.update(e, d.reference).command;
-  command =
-      control::bound_command(command, options_.limits, controller_.hover_thrust_estimate_N())
-          .command;
+  command = control::bound_command(command, options_.limits, controller_.hover_thrust_estimate_N())
+                .command;
   watchdog_.submit(now_ns, command);
   last_reference_ = d.reference;
   r.mode = d.mode;

@@ -5,8 +5,6 @@
 // increasing: right index = left column + lane. Optimisation notes: docs/stereo.md.
 #include "kestrel/sensor/block_matcher.hpp"
 
-#include "grey_input.hpp"
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -18,6 +16,7 @@
 #include <utility>
 
 #include "block_matcher_kernels.hpp"
+#include "grey_input.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/io/option_fields.hpp"
 #include "kestrel/io/yaml_file.hpp"

@@ -43,9 +43,8 @@ std::string PatternOptions::describe() const {
   } else {
     os << ", segments of [" << min_length_px << ", " << max_length_px << "] px";
   }
-  os << ", thickness [" << min_thickness_px << ", " << max_thickness_px
-     << "] px, colours " << pattern_colors_name(colors)
-     << (antialiased ? ", antialiased" : "");
+  os << ", thickness [" << min_thickness_px << ", " << max_thickness_px << "] px, colours "
+     << pattern_colors_name(colors) << (antialiased ? ", antialiased" : "");
   return os.str();
 }
 
@@ -58,9 +57,12 @@ PatternColors parse_pattern_colors(const std::string& name) {
 
 const char* pattern_colors_name(PatternColors colors) {
   switch (colors) {
-    case PatternColors::kPrimaries: return "primaries";
-    case PatternColors::kRandom: return "random";
-    case PatternColors::kWhite: return "white";
+    case PatternColors::kPrimaries:
+      return "primaries";
+    case PatternColors::kRandom:
+      return "random";
+    case PatternColors::kWhite:
+      return "white";
   }
   return "?";
 }
@@ -69,8 +71,8 @@ cv::Mat generate_pattern(const PatternOptions& options, std::uint64_t seed) {
   options.validate();
   std::mt19937_64 rng(seed);
   cv::Mat image(options.height, options.width, CV_8UC3, cv::Scalar::all(0));
-  static const cv::Scalar kPrimaries[] = {{0, 0, 255},   {0, 255, 0},   {255, 0, 0},
-                                          {255, 255, 0}, {255, 0, 255}, {0, 255, 255},
+  static const cv::Scalar kPrimaries[] = {{0, 0, 255},    {0, 255, 0},   {255, 0, 0},
+                                          {255, 255, 0},  {255, 0, 255}, {0, 255, 255},
                                           {255, 255, 255}};
   for (int i = 0; i < options.lines; ++i) {
     // Centre anywhere (segments may leave the image), orientation uniform over [0, pi). The
@@ -85,8 +87,12 @@ cv::Mat generate_pattern(const PatternOptions& options, std::uint64_t seed) {
     const int thickness = uniform_int(rng, options.min_thickness_px, options.max_thickness_px);
     cv::Scalar color;
     switch (options.colors) {
-      case PatternColors::kPrimaries: color = kPrimaries[uniform_int(rng, 0, 6)]; break;
-      case PatternColors::kWhite: color = cv::Scalar::all(255); break;
+      case PatternColors::kPrimaries:
+        color = kPrimaries[uniform_int(rng, 0, 6)];
+        break;
+      case PatternColors::kWhite:
+        color = cv::Scalar::all(255);
+        break;
       case PatternColors::kRandom: {
         color = cv::Scalar(uniform(rng, 0, 255), uniform(rng, 0, 255), uniform(rng, 0, 255));
         color[uniform_int(rng, 0, 2)] = 255.0;

@@ -3,9 +3,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <fstream>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
-#include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -64,8 +64,8 @@ void StereoCalibration::validate() const {
 
 std::string StereoCalibration::describe() const {
   std::ostringstream os;
-  os << "left " << left.describe() << "; right " << right.describe()
-     << "; baseline " << T_left_right.translation().norm() << " m";
+  os << "left " << left.describe() << "; right " << right.describe() << "; baseline "
+     << T_left_right.translation().norm() << " m";
   return os.str();
 }
 
@@ -74,11 +74,14 @@ StereoCalibration load_stereo_calibration(const fs::path& path) {
   const YAML::Node root = io::load_yaml_file(path);
   const YAML::Node sp = io::yaml_require(root, "stereo_pair", path, "");
   StereoCalibration calib;
-  calib.left = io::camera_from_yaml(io::yaml_require(sp, "left", path, "stereo_pair."), path, "stereo_pair.left");
-  calib.right = io::camera_from_yaml(io::yaml_require(sp, "right", path, "stereo_pair."), path, "stereo_pair.right");
-  const auto m = io::yaml_as<std::vector<double>>(io::yaml_require(sp, "T_left_right", path, "stereo_pair."), path,
-                                         "stereo_pair.T_left_right");
-  if (m.size() != 16) throw InputError(path, "stereo_pair.T_left_right", "needs 16 numbers (4x4, row-major)");
+  calib.left = io::camera_from_yaml(io::yaml_require(sp, "left", path, "stereo_pair."), path,
+                                    "stereo_pair.left");
+  calib.right = io::camera_from_yaml(io::yaml_require(sp, "right", path, "stereo_pair."), path,
+                                     "stereo_pair.right");
+  const auto m = io::yaml_as<std::vector<double>>(
+      io::yaml_require(sp, "T_left_right", path, "stereo_pair."), path, "stereo_pair.T_left_right");
+  if (m.size() != 16)
+    throw InputError(path, "stereo_pair.T_left_right", "needs 16 numbers (4x4, row-major)");
   Eigen::Matrix4d T;
   for (int i = 0; i < 16; ++i) T(i / 4, i % 4) = m[static_cast<std::size_t>(i)];
   try {
@@ -99,10 +102,11 @@ void save_stereo_calibration(const fs::path& path, const StereoCalibration& cali
     const auto& d = c.distortion();
     os << "  " << name << ": {width: " << c.width() << ", height: " << c.height()
        << ", fx: " << c.fx() << ", fy: " << c.fy() << ", cx: " << c.cx() << ", cy: " << c.cy()
-       << ", distortion: [" << d.k1 << ", " << d.k2 << ", " << d.p1 << ", " << d.p2 << ", "
-       << d.k3 << "]}\n";
+       << ", distortion: [" << d.k1 << ", " << d.k2 << ", " << d.p1 << ", " << d.p2 << ", " << d.k3
+       << "]}\n";
   };
-  os << io::provenance_line(command) << "\nstereo_pair:  # raw pair; T_left_right maps right-camera points to the left camera\n";
+  os << io::provenance_line(command)
+     << "\nstereo_pair:  # raw pair; T_left_right maps right-camera points to the left camera\n";
   cam("left", calib.left);
   cam("right", calib.right);
   const Eigen::Matrix4d T = calib.T_left_right.matrix();
@@ -127,9 +131,8 @@ StereoRectifier::StereoRectifier(const StereoCalibration& calibration, RectifyOp
   }
   cv::Mat Q;
   cv::stereoRectify(camera_matrix(calibration_.left), distortion_vector(calibration_.left),
-                    camera_matrix(calibration_.right), distortion_vector(calibration_.right),
-                    size, R, t, R1_, R2_, P1_, P2_, Q, cv::CALIB_ZERO_DISPARITY, options_.alpha,
-                    size);
+                    camera_matrix(calibration_.right), distortion_vector(calibration_.right), size,
+                    R, t, R1_, R2_, P1_, P2_, Q, cv::CALIB_ZERO_DISPARITY, options_.alpha, size);
   rig_.f = P1_.at<double>(0, 0);
   rig_.cu = P1_.at<double>(0, 2);
   rig_.cv = P1_.at<double>(1, 2);
@@ -137,17 +140,20 @@ StereoRectifier::StereoRectifier(const StereoCalibration& calibration, RectifyOp
   rig_.width = size.width;
   rig_.height = size.height;
   if (!(rig_.baseline_m > 0.0)) {
-    throw InputError("stereo calibration: after rectification the right camera is not to the "
-                     "right of the left one (baseline " + std::to_string(rig_.baseline_m) +
-                     " m): swap the cameras");
+    throw InputError(
+        "stereo calibration: after rectification the right camera is not to the "
+        "right of the left one (baseline " +
+        std::to_string(rig_.baseline_m) + " m): swap the cameras");
   }
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) R_rect_left_(i, j) = R1_.at<double>(i, j);
   }
-  cv::initUndistortRectifyMap(camera_matrix(calibration_.left), distortion_vector(calibration_.left),
-                              R1_, P1_, size, CV_16SC2, map_l1_, map_l2_);
-  cv::initUndistortRectifyMap(camera_matrix(calibration_.right), distortion_vector(calibration_.right),
-                              R2_, P2_, size, CV_16SC2, map_r1_, map_r2_);
+  cv::initUndistortRectifyMap(camera_matrix(calibration_.left),
+                              distortion_vector(calibration_.left), R1_, P1_, size, CV_16SC2,
+                              map_l1_, map_l2_);
+  cv::initUndistortRectifyMap(camera_matrix(calibration_.right),
+                              distortion_vector(calibration_.right), R2_, P2_, size, CV_16SC2,
+                              map_r1_, map_r2_);
 }
 
 void StereoRectifier::rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat& left_rect,

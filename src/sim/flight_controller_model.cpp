@@ -74,8 +74,8 @@ DecodedSticks FlightControllerModel::decode(const control::PwmChannels& pwm) con
   const auto& o = options_;
   auto stick = [&](int us) {
     const double d = us - o.channel_centre_us;
-    const double half = d >= 0 ? o.channel_max_us - o.channel_centre_us
-                               : o.channel_centre_us - o.channel_min_us;
+    const double half =
+        d >= 0 ? o.channel_max_us - o.channel_centre_us : o.channel_centre_us - o.channel_min_us;
     if (std::abs(d) <= o.deadband_us) return 0.0;
     const double s = (std::abs(d) - o.deadband_us) / (half - o.deadband_us);
     return std::copysign(std::min(s, 1.0), d);
@@ -85,8 +85,8 @@ DecodedSticks FlightControllerModel::decode(const control::PwmChannels& pwm) con
   s.pitch = stick(pwm.us[control::PwmChannels::kPitch]);
   s.yaw = stick(pwm.us[control::PwmChannels::kYaw]);
   const int t = pwm.us[control::PwmChannels::kThrottle];
-  s.throttle = std::clamp(static_cast<double>(t - o.channel_min_us) / (o.channel_max_us - o.channel_min_us),
-                          0.0, 1.0);
+  s.throttle = std::clamp(
+      static_cast<double>(t - o.channel_min_us) / (o.channel_max_us - o.channel_min_us), 0.0, 1.0);
   s.idle = t <= o.throttle_idle_us;
   return s;
 }
@@ -134,7 +134,8 @@ Eigen::Vector4d FlightControllerModel::update(double dt_s, const control::PwmCha
   const Eigen::Vector3d e_rate = rate_cmd - state.omega_body;
   if (dt_s > 0.0) {
     rate_integral_ += o.rate_integral_gain * e_rate * dt_s;
-    rate_integral_ = rate_integral_.cwiseMax(-o.rate_integral_limit).cwiseMin(o.rate_integral_limit);
+    rate_integral_ =
+        rate_integral_.cwiseMax(-o.rate_integral_limit).cwiseMin(o.rate_integral_limit);
   }
   const Eigen::Vector3d gains(o.rate_gain_rp, o.rate_gain_rp, o.rate_gain_yaw);
   const Eigen::Vector3d J = vehicle_.inertia_kg_m2;
@@ -152,8 +153,10 @@ Eigen::Vector4d FlightControllerModel::update(double dt_s, const control::PwmCha
   double yaw_scale = 1.0;
   for (int i = 0; i < 4; ++i) {
     const double next = w2[i] + w2_yaw[i];
-    if (next > w_max2 && w2_yaw[i] > 0.0) yaw_scale = std::min(yaw_scale, std::max(0.0, (w_max2 - w2[i]) / w2_yaw[i]));
-    if (next < w_min2 && w2_yaw[i] < 0.0) yaw_scale = std::min(yaw_scale, std::max(0.0, (w_min2 - w2[i]) / w2_yaw[i]));
+    if (next > w_max2 && w2_yaw[i] > 0.0)
+      yaw_scale = std::min(yaw_scale, std::max(0.0, (w_max2 - w2[i]) / w2_yaw[i]));
+    if (next < w_min2 && w2_yaw[i] < 0.0)
+      yaw_scale = std::min(yaw_scale, std::max(0.0, (w_min2 - w2[i]) / w2_yaw[i]));
   }
   w2 += yaw_scale * w2_yaw;
   const double hi = w2.maxCoeff();

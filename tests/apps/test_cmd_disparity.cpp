@@ -82,8 +82,8 @@ TEST_F(CmdImageOutputs, DisparityRefusesForeignImagesForEachImageOutput) {
 TEST_F(CmdImageOutputs, DisparityRefusesAnOutputThatIsAnInputEvenWithForce) {
   const std::string left = bytes_of(dir_ / "left.png");
   const std::string right = bytes_of(dir_ / "right.png");
-  for (const auto& [output, input] : {std::pair<std::string, std::string>{"--color", "--left"},
-                                      {"--depth", "--right"}}) {
+  for (const auto& [output, input] :
+       {std::pair<std::string, std::string>{"--color", "--left"}, {"--depth", "--right"}}) {
     const std::string target = input == "--left" ? "left.png" : "right.png";
     const RunResult r = run(disparity("--force --calib " + path("rig.yaml") + " --out " +
                                       path("d.pfm") + " " + output + " " + path(target)));

@@ -29,7 +29,9 @@ class CmdEvaluate : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  RunResult run(const std::string& arguments) const { return kestrel::test::run_kestrel(dir_, arguments); }
+  RunResult run(const std::string& arguments) const {
+    return kestrel::test::run_kestrel(dir_, arguments);
+  }
 
   static std::string reference(const std::string& name) {
     return quoted(
@@ -146,17 +148,20 @@ TEST_F(CmdEvaluate, OffsetShiftsTheEstimateBeforeTheAssociation) {
       e << t + 0.3 << " " << x << " " << y << " 0 0 0 0 1\n";
     }
   }
-  const std::string args = "evaluate --gt " + quoted(gt.string()) + " --est " + quoted(est.string());
+  const std::string args =
+      "evaluate --gt " + quoted(gt.string()) + " --est " + quoted(est.string());
   double ate = 0, trans = 0, rot = 0;
   const RunResult plain = run(args);
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
-  ASSERT_EQ(std::sscanf(plain.last_line().c_str(), "ate_rmse_m=%lf rpe_trans_m_s=%lf rpe_rot_deg_s=%lf",
-                        &ate, &trans, &rot), 3);
+  ASSERT_EQ(std::sscanf(plain.last_line().c_str(),
+                        "ate_rmse_m=%lf rpe_trans_m_s=%lf rpe_rot_deg_s=%lf", &ate, &trans, &rot),
+            3);
   EXPECT_GT(ate, 0.01);  // the curve does not align onto itself shifted along it
   const RunResult shifted = run(args + " --offset -0.3");
   ASSERT_EQ(shifted.exit_code, 0) << shifted.err;
-  ASSERT_EQ(std::sscanf(shifted.last_line().c_str(), "ate_rmse_m=%lf rpe_trans_m_s=%lf rpe_rot_deg_s=%lf",
-                        &ate, &trans, &rot), 3);
+  ASSERT_EQ(std::sscanf(shifted.last_line().c_str(),
+                        "ate_rmse_m=%lf rpe_trans_m_s=%lf rpe_rot_deg_s=%lf", &ate, &trans, &rot),
+            3);
   EXPECT_LT(ate, 1e-6);
   EXPECT_LT(trans, 1e-6);
   EXPECT_NE(shifted.err.find("offset_s=-0.3"), std::string::npos) << shifted.err;

@@ -51,8 +51,7 @@ TEST_F(CmdFly, UnknownScenarioIsAClearError) {
 
 TEST_F(CmdFly, MissingOutputAndBadOutageAreErrors) {
   EXPECT_NE(run("fly --scenario hover").err.find("--out"), std::string::npos);
-  const RunResult r =
-      run("fly --scenario hover --duration 2 --vo-off-at 5 --out " + out("flight"));
+  const RunResult r = run("fly --scenario hover --duration 2 --vo-off-at 5 --out " + out("flight"));
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("--vo-off-at"), std::string::npos) << r.err;
 }

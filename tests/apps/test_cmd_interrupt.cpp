@@ -1,6 +1,7 @@
 // Ctrl-C (SIGINT) and SIGTERM sent to a running `kestrel odometry`: it stops after the current
 // frame, writes the trajectory of the frames done and a --frames log of whole rows, says so and
 // exits with 128 + the signal.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -9,7 +10,6 @@
 #include <algorithm>
 #include <chrono>
 #include <csignal>
-#include <fcntl.h>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -27,7 +27,8 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-constexpr const char* kInterruptSequence = "euroc/V1_01_easy_part1";  // 60 stereo pairs, ~50 ms each
+constexpr const char* kInterruptSequence =
+    "euroc/V1_01_easy_part1";  // 60 stereo pairs, ~50 ms each
 
 std::vector<std::string> rows_of_text(const std::string& text) {
   std::vector<std::string> out;
@@ -37,7 +38,8 @@ std::vector<std::string> rows_of_text(const std::string& text) {
 }
 
 // `kestrel args...` with stdout and stderr to files; the child's pid.
-pid_t spawn_kestrel(const std::vector<std::string>& args, const fs::path& out, const fs::path& err) {
+pid_t spawn_kestrel(const std::vector<std::string>& args, const fs::path& out,
+                    const fs::path& err) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -78,8 +80,8 @@ TEST_P(CmdInterrupt, OdometryStopsAndWritesWhatWasDone) {
   const fs::path dir = kestrel::test::fresh_temp_dir("cmd_interrupt");
   const fs::path csv = dir / "frames.csv";
   const pid_t pid = spawn_kestrel(
-      {"odometry", "--stereo", (kestrel::test::shared_data_dir() / kInterruptSequence).string(), "--out",
-       (dir / "t.txt").string(), "--frames", csv.string()},
+      {"odometry", "--stereo", (kestrel::test::shared_data_dir() / kInterruptSequence).string(),
+       "--out", (dir / "t.txt").string(), "--frames", csv.string()},
       dir / "stdout.txt", dir / "stderr.txt");
   ASSERT_GT(pid, 0) << "posix_spawn failed";
 

@@ -4,11 +4,10 @@
 
 #include <algorithm>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <opencv2/imgcodecs.hpp>
 
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
@@ -175,7 +174,8 @@ class CmdOdometryBadFrames : public CmdOdometry {
     CmdOdometry::SetUp();
     if (HasFatalFailure()) return;
     fs::copy(dir_ / "seq", dir_ / "bad", fs::copy_options::recursive);
-    for (const auto& entry : fs::directory_iterator(dir_ / "bad" / "rgb")) rgb_.push_back(entry.path());
+    for (const auto& entry : fs::directory_iterator(dir_ / "bad" / "rgb"))
+      rgb_.push_back(entry.path());
     std::sort(rgb_.begin(), rgb_.end());  // the names are the time stamps
     ASSERT_EQ(rgb_.size(), 6U);
   }
@@ -276,8 +276,7 @@ TEST_F(CmdOdometry, MatcherFlagsNeedStereoAndAKnownName) {
 
 TEST_F(CmdOdometry, UnwritableOutIsFoundBeforeAnyWork) {
   ASSERT_TRUE(fs::is_directory("/proc/self")) << "needs procfs (which takes no new files)";
-  const RunResult r =
-      odometry("--out /proc/self/kestrel_traj.txt --frames " + path("frames.csv"));
+  const RunResult r = odometry("--out /proc/self/kestrel_traj.txt --frames " + path("frames.csv"));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("/proc/self/kestrel_traj.txt"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("SUMMARY"), std::string::npos) << "frames were tracked first:\n" << r.err;

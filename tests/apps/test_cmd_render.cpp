@@ -35,7 +35,9 @@ class CmdRender : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  RunResult run(const std::string& arguments) const { return kestrel::test::run_kestrel(dir_, arguments); }
+  RunResult run(const std::string& arguments) const {
+    return kestrel::test::run_kestrel(dir_, arguments);
+  }
   std::string tiny() const { return "--camera " + quoted((dir_ / "tiny.yaml").string()); }
   std::string out(const std::string& name) const { return quoted((dir_ / name).string()); }
 

@@ -79,14 +79,22 @@ class CommandTree : public ::testing::Test {
 // default. A numeric option with neither fails the test, so this list must grow with them.
 const std::map<std::string, std::string>& good_values_without_default() {
   static const std::map<std::string, std::string> values = {
-      {"kestrel odometry --depth-scale", "1000"},  {"kestrel odometry --block", "7"},
-      {"kestrel odometry --max-disparity", "128"}, {"kestrel odometry --min-disparity", "0"},
-      {"kestrel disparity --min-depth", "0.2"},    {"kestrel disparity --max-depth", "20"},
-      {"kestrel capture --frames", "100"},         {"kestrel capture --duration", "10"},
-      {"kestrel capture --rate", "30"},            {"kestrel render --duration", "3"},
-      {"kestrel fly --duration", "30"},            {"kestrel fly --latency", "0.04"},
-      {"kestrel fly --vo-off-at", "10"},           {"kestrel fly --vo-off-for", "2"},
-      {"kestrel fuse --imu-noise-inflation", "15"}, {"kestrel lab fuse-eval --time-offset-ms", "15"},
+      {"kestrel odometry --depth-scale", "1000"},
+      {"kestrel odometry --block", "7"},
+      {"kestrel odometry --max-disparity", "128"},
+      {"kestrel odometry --min-disparity", "0"},
+      {"kestrel disparity --min-depth", "0.2"},
+      {"kestrel disparity --max-depth", "20"},
+      {"kestrel capture --frames", "100"},
+      {"kestrel capture --duration", "10"},
+      {"kestrel capture --rate", "30"},
+      {"kestrel render --duration", "3"},
+      {"kestrel fly --duration", "30"},
+      {"kestrel fly --latency", "0.04"},
+      {"kestrel fly --vo-off-at", "10"},
+      {"kestrel fly --vo-off-for", "2"},
+      {"kestrel fuse --imu-noise-inflation", "15"},
+      {"kestrel lab fuse-eval --time-offset-ms", "15"},
   };
   return values;
 }
@@ -122,8 +130,9 @@ TEST_F(CommandTree, DefaultsAndGoodValuesPassTheirRangeCheck) {
     if (good.empty()) {
       const auto it = good_values_without_default().find(o.label());
       if (it == good_values_without_default().end()) {
-        ADD_FAILURE() << o.label()
-                      << " shows no default: add an in-range value to good_values_without_default()";
+        ADD_FAILURE()
+            << o.label()
+            << " shows no default: add an in-range value to good_values_without_default()";
         continue;
       }
       good = it->second;
@@ -159,8 +168,8 @@ TEST_F(CommandTree, ParsingABadValueIsRefusedNamingTheOptionAndItsRange) {
         EXPECT_NE(message.find(o.name), std::string::npos) << o.label() << ": " << message;
       }
     } catch (const std::exception& e) {
-      ADD_FAILURE() << o.label() << " nan: refused by something other than its range check: "
-                    << e.what();
+      ADD_FAILURE() << o.label()
+                    << " nan: refused by something other than its range check: " << e.what();
     }
   }
 }
@@ -233,9 +242,9 @@ TEST_F(OptionRanges, DepthScaleIsAFiniteNumberWithAReadableRange) {
   fs::create_directories(dataset);
   for (const std::string bad : {"0", "nan", "inf", "-5000"}) {
     const fs::path out = dir_ / "out";
-    const RunResult r = kestrel::test::run_kestrel(
-        dir_, "odometry " + quoted(dataset.string()) + " --depth-scale " + bad + " --out " +
-                  quoted(out.string()));
+    const RunResult r = kestrel::test::run_kestrel(dir_, "odometry " + quoted(dataset.string()) +
+                                                             " --depth-scale " + bad + " --out " +
+                                                             quoted(out.string()));
     EXPECT_NE(r.exit_code, 0) << bad;
     EXPECT_NE(r.err.find("--depth-scale"), std::string::npos) << bad << ": " << r.err;
     EXPECT_NE(r.err.find("(0, 1000000]"), std::string::npos) << bad << ": " << r.err;
@@ -248,9 +257,9 @@ TEST_F(OptionRanges, EvaluateRefusesAnAssociationWindowThatOverflowsNanoseconds)
   // 1e10 s is 1e19 ns, past int64: signed overflow (UBSan) in the association.
   const fs::path gt = dir_ / "gt.txt";
   std::ofstream(gt) << "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n";
-  const RunResult r = kestrel::test::run_kestrel(
-      dir_, "evaluate --gt " + quoted(gt.string()) + " --est " + quoted(gt.string()) +
-                " --max-diff 1e10");
+  const RunResult r =
+      kestrel::test::run_kestrel(dir_, "evaluate --gt " + quoted(gt.string()) + " --est " +
+                                           quoted(gt.string()) + " --max-diff 1e10");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("--max-diff"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("(0, 3600] s"), std::string::npos) << r.err;
@@ -258,9 +267,9 @@ TEST_F(OptionRanges, EvaluateRefusesAnAssociationWindowThatOverflowsNanoseconds)
 
 TEST_F(OptionRanges, CaptureDecodeFileThatIsAFolderIsRefusedClearly) {
   // Said "basic_filebuf::underflow".
-  const RunResult r = kestrel::test::run_kestrel(
-      dir_, "capture --decode-file " + quoted(dir_.string()) + " --out " +
-                quoted((dir_ / "out").string()));
+  const RunResult r =
+      kestrel::test::run_kestrel(dir_, "capture --decode-file " + quoted(dir_.string()) +
+                                           " --out " + quoted((dir_ / "out").string()));
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.err.find("--decode-file"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("directory"), std::string::npos) << r.err;

@@ -23,7 +23,8 @@ TEST(PositionControllerClosedLoop, HoverHoldsWithinACentimetre) {
   const auto log = loop.run(20.0);
   const double rms = test::rms_error(log, 10.0);
   double max_err = 0.0;
-  for (const auto& s : log) if (s.t_s >= 10.0) max_err = std::max(max_err, (s.p_true - s.p_ref).norm());
+  for (const auto& s : log)
+    if (s.t_s >= 10.0) max_err = std::max(max_err, (s.p_true - s.p_ref).norm());
   std::printf("[figure] hover (0.3 N draught): rms %.4f m, max %.4f m after 10 s\n", rms, max_err);
   EXPECT_LT(max_err, 0.01);
   EXPECT_FALSE(log.back().crashed);
@@ -78,7 +79,8 @@ TEST(PositionControllerClosedLoop, LargeStepRespectsTheTiltAndSpeedLimits) {
   double max_tilt = 0.0, max_speed = 0.0;
   for (std::size_t i = 0; i < log.size(); ++i) {
     max_tilt = std::max(max_tilt, std::hypot(log[i].command.roll_rad, log[i].command.pitch_rad));
-    if (i > 0) max_speed = std::max(max_speed, (log[i].p_true - log[i - 1].p_true).head<2>().norm() * 200.0);
+    if (i > 0)
+      max_speed = std::max(max_speed, (log[i].p_true - log[i - 1].p_true).head<2>().norm() * 200.0);
   }
   std::printf("[figure] 11 m step: max commanded tilt %.1f deg, max speed %.2f m/s, final %.3f m\n",
               max_tilt / kDegToRad, max_speed,
@@ -93,7 +95,8 @@ PositionReference square(double t, double side, double speed) {
   const double accel_time = 0.5;
   const double a = speed / accel_time;
   const double side_time = side / speed + accel_time;
-  const Eigen::Vector3d corners[5] = {{0, 0, 1.5}, {side, 0, 1.5}, {side, side, 1.5}, {0, side, 1.5}, {0, 0, 1.5}};
+  const Eigen::Vector3d corners[5] = {
+      {0, 0, 1.5}, {side, 0, 1.5}, {side, side, 1.5}, {0, side, 1.5}, {0, 0, 1.5}};
   PositionReference r;
   if (t < 0.0 || t >= 4 * side_time) {
     r.p_world = corners[0];
@@ -104,12 +107,18 @@ PositionReference square(double t, double side, double speed) {
   const Eigen::Vector3d dir = (corners[k + 1] - corners[k]).normalized();
   double s, v, acc;
   if (u < accel_time) {
-    s = 0.5 * a * u * u; v = a * u; acc = a;
+    s = 0.5 * a * u * u;
+    v = a * u;
+    acc = a;
   } else if (u < side_time - accel_time) {
-    s = 0.5 * a * accel_time * accel_time + speed * (u - accel_time); v = speed; acc = 0.0;
+    s = 0.5 * a * accel_time * accel_time + speed * (u - accel_time);
+    v = speed;
+    acc = 0.0;
   } else {
     const double d = side_time - u;
-    s = side - 0.5 * a * d * d; v = a * d; acc = -a;
+    s = side - 0.5 * a * d * d;
+    v = a * d;
+    acc = -a;
   }
   r.p_world = corners[k] + s * dir;
   r.v_world = v * dir;

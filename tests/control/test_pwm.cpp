@@ -114,7 +114,8 @@ std::string read_text(const std::filesystem::path& f) {
 
 TEST(SysfsPwmOutput, WritesPeriodDutyAndEnableUnderTheChip) {
   const auto chip = test::fresh_temp_dir("sysfs_pwm");
-  for (int i = 0; i < 4; ++i) std::filesystem::create_directories(chip / ("pwm" + std::to_string(i)));
+  for (int i = 0; i < 4; ++i)
+    std::filesystem::create_directories(chip / ("pwm" + std::to_string(i)));
   const PwmMapper m;
   SysfsPwmOptions o;
   o.chip = chip;

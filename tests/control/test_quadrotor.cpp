@@ -106,7 +106,8 @@ TEST(Quadrotor, RestsOnTheGroundAndDetectsACrash) {
   QuadrotorState high;
   high.p_world = {0, 0, 3};
   Quadrotor drop(p, high);
-  for (int i = 0; i < 2000 && !drop.state().on_ground; ++i) drop.step(0.001, Eigen::Vector4d::Zero());
+  for (int i = 0; i < 2000 && !drop.state().on_ground; ++i)
+    drop.step(0.001, Eigen::Vector4d::Zero());
   EXPECT_TRUE(drop.state().on_ground);
   EXPECT_TRUE(drop.state().crashed);
   EXPECT_GT(drop.state().touchdown_speed_m_s, 5.0);
@@ -152,8 +153,7 @@ TEST(Quadrotor, TheImuFeelsATouchdownThroughTheLegs) {
   const Eigen::Vector3d removed = -s.v_world + Eigen::Vector3d(0, 0, p.gravity_m_s2 * h);
   EXPECT_LT((felt_dv - (-s.v_world)).norm(), 0.01 * removed.norm() + p.gravity_m_s2 * h);
   // Rotation: the tilt only (the heading is kept).
-  const Eigen::Vector3d levelling =
-      (q.state().R_world_body * s.R_world_body.inverse()).log();
+  const Eigen::Vector3d levelling = (q.state().R_world_body * s.R_world_body.inverse()).log();
   EXPECT_LT((felt_rotation - levelling).norm(), 0.01 * levelling.norm() + 1e-4);
   EXPECT_GT(levelling.norm(), 0.06);
   EXPECT_LT(peak, 16.0 * 9.81);

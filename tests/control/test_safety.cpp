@@ -62,9 +62,11 @@ TEST(Safety, LongOdometryLossLandsAfterTheTimeout) {
     if (landed_at < 0 && s.mode == SafetyMode::kLanded) landed_at = s.t_s;
   }
   const auto& st = loop.vehicle.state();
-  std::printf("[figure] odometry lost: landing at %.2f s, landed at %.2f s, touchdown %.2f m/s, "
-              "drift %.3f m\n", landing_start, landed_at, st.touchdown_speed_m_s,
-              (st.p_world.head<2>() - Eigen::Vector2d(0.5, 0.5)).norm());
+  std::printf(
+      "[figure] odometry lost: landing at %.2f s, landed at %.2f s, touchdown %.2f m/s, "
+      "drift %.3f m\n",
+      landing_start, landed_at, st.touchdown_speed_m_s,
+      (st.p_world.head<2>() - Eigen::Vector2d(0.5, 0.5)).norm());
   EXPECT_NEAR(landing_start, 1.0 + 0.3 + 5.0, 0.05);
   EXPECT_GT(landed_at, landing_start);
   EXPECT_TRUE(st.on_ground);
@@ -92,8 +94,8 @@ TEST(Safety, EstimatorFailureDescendsLevelAndCutsTheMotors) {
     }
   }
   const auto& st = loop.vehicle.state();
-  std::printf("[figure] estimator failure: touchdown %.2f m/s, drift %.3f m\n", st.touchdown_speed_m_s,
-              st.p_world.head<2>().norm());
+  std::printf("[figure] estimator failure: touchdown %.2f m/s, drift %.3f m\n",
+              st.touchdown_speed_m_s, st.p_world.head<2>().norm());
   EXPECT_EQ(max_tilt, 0.0) << "level";
   EXPECT_TRUE(st.on_ground);
   EXPECT_FALSE(st.crashed);
@@ -124,8 +126,10 @@ TEST(Safety, WatchdogLevelsAndDescendsWhenCommandsStop) {
     }
   }
   const auto& st = loop.vehicle.state();
-  std::printf("[figure] watchdog: tripped %.3f s after the last command, cut off at %.2f s, "
-              "touchdown %.2f m/s\n", tripped_at - 4.0 + 0.005, cut_at, st.touchdown_speed_m_s);
+  std::printf(
+      "[figure] watchdog: tripped %.3f s after the last command, cut off at %.2f s, "
+      "touchdown %.2f m/s\n",
+      tripped_at - 4.0 + 0.005, cut_at, st.touchdown_speed_m_s);
   EXPECT_NEAR(tripped_at, 4.25, 0.01);
   EXPECT_NEAR(cut_at, 4.0 + 0.25 + 8.0, 0.01);
   EXPECT_TRUE(st.on_ground);

@@ -56,7 +56,8 @@ class CmdFuse : public ::testing::Test {
       << "accelerometer_random_walk: " << options_.noise.accel_walk << "\n"
       << "T_body_cam:\n  rows: 4\n  cols: 4\n  data: [";
     const Eigen::Matrix4d T = sim_.T_body_cam.matrix();
-    for (int i = 0; i < 16; ++i) y << std::setprecision(17) << T(i / 4, i % 4) << (i < 15 ? ", " : "]\n");
+    for (int i = 0; i < 16; ++i)
+      y << std::setprecision(17) << T(i / 4, i % 4) << (i < 15 ? ", " : "]\n");
   }
 
   void generate() {
@@ -99,9 +100,8 @@ class CmdFuse : public ::testing::Test {
 
   std::string common_args(const fs::path& calib) {
     return "fuse --imu " + quoted((dir_ / "imu.csv").string()) + " --vo " +
-           quoted((dir_ / "vo.txt").string()) + " --calib " + quoted(calib.string()) +
-           " --init " + quoted((dir_ / "init.txt").string()) + " --out " +
-           quoted((dir_ / "fused.txt").string());
+           quoted((dir_ / "vo.txt").string()) + " --calib " + quoted(calib.string()) + " --init " +
+           quoted((dir_ / "init.txt").string()) + " --out " + quoted((dir_ / "fused.txt").string());
   }
 
   fs::path dir_;
@@ -114,8 +114,8 @@ class CmdFuse : public ::testing::Test {
 };
 
 TEST_F(CmdFuse, WritesOneAccurateBodyPosePerOdometryFrame) {
-  const RunResult r = run(common_args(dir_ / "imu.yaml") + " --states " +
-                          quoted((dir_ / "states.txt").string()));
+  const RunResult r =
+      run(common_args(dir_ / "imu.yaml") + " --states " + quoted((dir_ / "states.txt").string()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("accepted updates: "), std::string::npos) << r.out;
   std::ifstream in(dir_ / "fused.txt");

@@ -85,7 +85,8 @@ TEST(FusionBehaviour, JosephUpdateKeepsCovarianceSymmetricPositiveDefiniteForAnH
   std::size_t i = 0, checks = 0;
   double worst_asym = 0.0, min_eig = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < run.odometry.size(); ++k) {
-    while (i < run.imu.size() && run.imu[i].t_ns <= run.odometry[k].t_ns) engine.add_imu(run.imu[i++]);
+    while (i < run.imu.size() && run.imu[i].t_ns <= run.odometry[k].t_ns)
+      engine.add_imu(run.imu[i++]);
     engine.add_relative_pose(run.odometry[k]);
     (void)engine.flush(false);
     if (k % 500 == 0 || k + 1 == run.odometry.size()) {
@@ -103,7 +104,8 @@ TEST(FusionBehaviour, JosephUpdateKeepsCovarianceSymmetricPositiveDefiniteForAnH
   EXPECT_GT(checks, 30u);
   EXPECT_EQ(worst_asym, 0.0);
   EXPECT_GT(min_eig, 0.0);
-  EXPECT_EQ(engine.counters().updates_accepted + engine.counters().updates_gated, run.odometry.size());
+  EXPECT_EQ(engine.counters().updates_accepted + engine.counters().updates_gated,
+            run.odometry.size());
   EXPECT_LT(engine.counters().updates_gated, run.odometry.size() / 100);
   // The simulator's noise is the filter's: the normalised innovations average their 6 dof (the
   // gate trims the top ~1 %; the standard error of the mean is sqrt(12 / N) ~ 0.02 here).
@@ -126,7 +128,8 @@ struct Scenario {
 Scenario still_scenario(double seconds) {
   Scenario s;
   const auto n = static_cast<int>(seconds * 200);
-  for (int k = 0; k <= n; ++k) s.imu.push_back(still_sample(k * kPeriod, Eigen::Quaterniond::Identity(), Vector3d::Zero()));
+  for (int k = 0; k <= n; ++k)
+    s.imu.push_back(still_sample(k * kPeriod, Eigen::Quaterniond::Identity(), Vector3d::Zero()));
   for (int k = 10; k <= n; k += 10) {
     RelativePoseMeasurement m;
     m.t_ref_ns = (k - 10) * kPeriod;
@@ -151,7 +154,8 @@ TEST(FusionBehaviour, OutOfOrderInputWithinTheWindowGivesTheSameResult) {
   std::size_t vi = 0;
   std::vector<FusedState> b;
   for (const auto& s : imu) {
-    while (vi < sc.vo.size() && sc.vo[vi].t_ns + 30'000'000 <= s.t_ns) shuffled.add_relative_pose(sc.vo[vi++]);
+    while (vi < sc.vo.size() && sc.vo[vi].t_ns + 30'000'000 <= s.t_ns)
+      shuffled.add_relative_pose(sc.vo[vi++]);
     shuffled.add_imu(s);
     for (const auto& f : shuffled.poll(false)) b.push_back(f);
   }
@@ -195,7 +199,8 @@ TEST(FusionBehaviour, NanSamplesAreDroppedAndCountedNeverPropagated) {
   EXPECT_TRUE(e.filter().state().all_finite());
   // The filter itself refuses NaN readings and non-positive steps with an exception.
   StochasticCloningEkf ekf = e.filter();
-  EXPECT_THROW(ekf.propagate({Vector3d::Constant(std::nan("")), Vector3d::Zero()}, 0.005), std::invalid_argument);
+  EXPECT_THROW(ekf.propagate({Vector3d::Constant(std::nan("")), Vector3d::Zero()}, 0.005),
+               std::invalid_argument);
   EXPECT_THROW(ekf.propagate({Vector3d::Zero(), Vector3d::Zero()}, -0.005), std::invalid_argument);
 }
 
@@ -253,7 +258,8 @@ TEST(FusionBehaviour, OdometryDropoutFlagsAndGrowsCovarianceThenRecovers) {
   for (const auto& f : out) {
     if (f.t_ns == 4'000'000'000) s_at_4 = f.sigma.head<3>().norm();
     if (f.t_ns == 5'995'000'000) s_at_6 = f.sigma.head<3>().norm();
-    if (f.t_ns > 4'500'000'000 && f.t_ns < 6'000'000'000 && (f.flags & kFlagVoDropout)) dropout_in_gap = true;
+    if (f.t_ns > 4'500'000'000 && f.t_ns < 6'000'000'000 && (f.flags & kFlagVoDropout))
+      dropout_in_gap = true;
     if (f.t_ns == out.back().t_ns) dropout_at_end = f.flags & kFlagVoDropout;
   }
   EXPECT_TRUE(dropout_in_gap);
@@ -400,13 +406,15 @@ TEST(FusionBehaviour, ChiSquareGateRejectsAnOutlier) {
 
 TEST(FusionBehaviour, MissingCalibrationFieldIsAnErrorNamingIt) {
   const auto dir = test::fresh_temp_dir("fusion");
-  std::ofstream(dir / "imu.yaml") << "%YAML:1.0\nrate_hz: 200\ngyroscope_noise_density: 1.6e-4\n"
-                                    "gyroscope_random_walk: 1.9e-5\naccelerometer_noise_density: 2e-3\n";
+  std::ofstream(dir / "imu.yaml")
+      << "%YAML:1.0\nrate_hz: 200\ngyroscope_noise_density: 1.6e-4\n"
+         "gyroscope_random_walk: 1.9e-5\naccelerometer_noise_density: 2e-3\n";
   try {
     (void)io::load_imu_noise(dir / "imu.yaml");
     FAIL() << "no error";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("accelerometer_random_walk"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("accelerometer_random_walk"), std::string::npos)
+        << e.what();
   }
   std::ofstream(dir / "options.yaml") << "gate_probabilty: 0.99\n";
   try {

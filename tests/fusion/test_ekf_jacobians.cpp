@@ -66,8 +66,7 @@ TEST(FusionJacobians, MeasurementJacobianMatchesFiniteDifferences) {
     const Matrix6xs H = StochasticCloningEkf::measurement_jacobian(x);
     const Matrix6xs numeric_H = numeric::measurement_jacobian(x);
     for (int j = 0; j < idx::kDim; ++j) {
-      EXPECT_LT((numeric_H.col(j) - H.col(j)).norm(), 1e-6)
-          << "trial " << trial << " column " << j;
+      EXPECT_LT((numeric_H.col(j) - H.col(j)).norm(), 1e-6) << "trial " << trial << " column " << j;
     }
   }
 }
@@ -138,7 +137,8 @@ TEST(FusionJacobians, LeftPerturbationCovarianceMapping) {
       Vector6d d = Vector6d::Zero();
       d(j) = h;
       J.col(j) = (StochasticCloningEkf::residual(SE3::exp(d) * T, T) -
-                  StochasticCloningEkf::residual(SE3::exp(-d) * T, T)) / (2 * h);
+                  StochasticCloningEkf::residual(SE3::exp(-d) * T, T)) /
+                 (2 * h);
     }
     Matrix6d C = Matrix6d::Identity();
     C(0, 3) = C(3, 0) = 0.3;

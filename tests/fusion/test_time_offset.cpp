@@ -29,8 +29,7 @@ TEST(TimeOffset, MeasurementJacobianMatchesFiniteDifferencesWithAnOffset) {
     const Matrix6xs H = StochasticCloningEkf::measurement_jacobian(x);
     const Matrix6xs numeric_H = numeric::measurement_jacobian(x);
     for (int j = 0; j < idx::kDim; ++j) {
-      EXPECT_LT((numeric_H.col(j) - H.col(j)).norm(), 1e-6)
-          << "trial " << trial << " column " << j;
+      EXPECT_LT((numeric_H.col(j) - H.col(j)).norm(), 1e-6) << "trial " << trial << " column " << j;
     }
     largest_td_column = std::max(largest_td_column, H.col(idx::kTd).norm());
   }

@@ -283,13 +283,16 @@ TEST(PhotometricEmulation, WarpResidualsAreTheTrackers) {
     const auto n = static_cast<std::size_t>(s.level.count);
     std::vector<float> sr(n);
     std::vector<std::uint8_t> sv(n);
-    const odometry::kernels::PointsView points{s.level.x.data(), s.level.y.data(),
-                                               s.level.z.data(), s.level.intensity.data(),
-                                               s.level.count};
+    const odometry::kernels::PointsView points{s.level.x.data(), s.level.y.data(), s.level.z.data(),
+                                               s.level.intensity.data(), s.level.count};
     const odometry::kernels::LevelImage image{s.current.ptr<float>(),
-                                              static_cast<int>(s.current.step1()), s.current.cols,
-                                              s.current.rows, s.level.fx, s.level.fy,
-                                              s.level.cx, s.level.cy};
+                                              static_cast<int>(s.current.step1()),
+                                              s.current.cols,
+                                              s.current.rows,
+                                              s.level.fx,
+                                              s.level.fy,
+                                              s.level.cx,
+                                              s.level.cy};
     EXPECT_EQ(odometry::kernels::warp_residuals_scalar(points, image,
                                                        odometry::kernels::FloatPose::from(T), 1.05F,
                                                        -0.02F, sr.data(), sv.data()),

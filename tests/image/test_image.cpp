@@ -1,10 +1,10 @@
 // image/: intensity, pyramids (incl. depth across occlusions), gradients, bilinear sampling,
 // undistortion maps.
 #include <gtest/gtest.h>
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "kestrel/image/gradient.hpp"
@@ -19,7 +19,8 @@ namespace {
 cv::Mat ramp(int w, int h, float a, float b, float c) {
   cv::Mat m(h, w, CV_32FC1);
   for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) m.at<float>(y, x) = a * static_cast<float>(x) + b * static_cast<float>(y) + c;
+    for (int x = 0; x < w; ++x)
+      m.at<float>(y, x) = a * static_cast<float>(x) + b * static_cast<float>(y) + c;
   }
   return m;
 }
@@ -63,10 +64,10 @@ TEST(Pyramid, DepthIsNotAveragedAcrossOcclusionsOrInvalidPixels) {
   cv::Mat out;
   downsample_depth(d, out, 0.03F);
   ASSERT_EQ(out.size(), cv::Size(4, 1));
-  EXPECT_FLOAT_EQ(out.at<float>(0, 0), 1.0F);    // foreground only, never 2.0
-  EXPECT_FLOAT_EQ(out.at<float>(0, 1), 0.0F);    // all invalid
+  EXPECT_FLOAT_EQ(out.at<float>(0, 0), 1.0F);      // foreground only, never 2.0
+  EXPECT_FLOAT_EQ(out.at<float>(0, 1), 0.0F);      // all invalid
   EXPECT_NEAR(out.at<float>(0, 2), 2.01F, 1e-6F);  // one surface: averaged
-  EXPECT_FLOAT_EQ(out.at<float>(0, 3), 4.0F);    // NaN, negative, inf ignored
+  EXPECT_FLOAT_EQ(out.at<float>(0, 3), 4.0F);      // NaN, negative, inf ignored
 }
 
 TEST(Gradient, CentralDifferencesOfARampAreItsSlope) {

@@ -104,8 +104,8 @@ TEST(Euroc, ImuSensorFileThatIsNotAMapIsAnInputError) {
   // directive) made yaml-cpp's BadSubscript escape, a message that names no file.
   const auto dir = test::fresh_temp_dir("euroc");
   const std::string crash("%YA\0\0\0\0\0\0\0\0\0\0\0ML:1.0\ncommenc FireAV\n", 36);
-  for (const std::string& text : {crash, std::string("%YAML:1.0\njust a scalar\n"),
-                                   std::string("- 1\n- 2\n")}) {
+  for (const std::string& text :
+       {crash, std::string("%YAML:1.0\njust a scalar\n"), std::string("- 1\n- 2\n")}) {
     std::ofstream(dir / "sensor.yaml", std::ios::binary) << text;
     try {
       load_imu_noise(dir / "sensor.yaml");

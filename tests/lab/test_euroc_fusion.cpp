@@ -52,9 +52,9 @@ TEST(FusionExperiments, SummaryOfDrawsCountsTheDrawsMeetingEachTarget) {
   EXPECT_DOUBLE_EQ(s.ratio.median, 0.3);
   EXPECT_DOUBLE_EQ(s.ratio.min, 0.1);
   EXPECT_DOUBLE_EQ(s.ratio.max, 0.6);
-  EXPECT_EQ(s.ratio.meeting, 3);          // <= 0.7 (the worst draw)
+  EXPECT_EQ(s.ratio.meeting, 3);  // <= 0.7 (the worst draw)
   EXPECT_EQ(s.ratio_above_one, 0);
-  EXPECT_EQ(s.gap_max_error.meeting, 2);  // <= 0.45 (the 90th percentile)
+  EXPECT_EQ(s.gap_max_error.meeting, 2);                   // <= 0.45 (the 90th percentile)
   EXPECT_DOUBLE_EQ(s.gap_max_error.p90, 0.3 + 0.8 * 0.2);  // between the 2nd and 3rd of 3
   EXPECT_EQ(s.bias_draws, 2);
   EXPECT_EQ(s.bias_at_check.meeting, 2);  // <= 0.005
@@ -196,7 +196,7 @@ TEST(FusionEuroc, SyntheticImuControlExperiment) {
   }
   EXPECT_EQ(s.bias_max_after.meeting, 8);
   EXPECT_LT(s.gap_max_error.median, 0.5 * r.gap_max_error.median);
-  EXPECT_GE(s.gap_max_error.meeting, 6);  // regression guard (measured 7 of 8)
+  EXPECT_GE(s.gap_max_error.meeting, 6);    // regression guard (measured 7 of 8)
   EXPECT_GT(r.gap_max_error.median, 0.45);  // the real IMU at 1x (median 0.61 m over 20)
 }
 

@@ -4,10 +4,9 @@
 
 #include <cmath>
 #include <limits>
+#include <opencv2/core.hpp>
 #include <random>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "kestrel/geometry/pinhole_camera.hpp"
 #include "kestrel/geometry/se3.hpp"
@@ -23,8 +22,8 @@ inline SE3 motion(double tx, double ty, double tz, double rx_deg, double ry_deg,
 }
 
 struct TexturedRect {
-  Eigen::Vector3d origin;            // centre, world frame
-  Eigen::Vector3d e1, e2;            // orthonormal in-plane axes
+  Eigen::Vector3d origin;             // centre, world frame
+  Eigen::Vector3d e1, e2;             // orthonormal in-plane axes
   double half_a = 1e9, half_b = 1e9;  // half extents along e1, e2
   // Texture: sum of sinusoids in the plane's (a, b) coordinates.
   std::vector<Eigen::Vector2d> freq;  // cycles per metre
@@ -110,7 +109,8 @@ odometry::RgbdFrame render_rows(const std::vector<TexturedRect>& scene, const Pi
 /// Renders intensity (CV_32FC1, [0, 1]) and depth (CV_32FC1, m) for camera pose T_world_cam.
 inline odometry::RgbdFrame render(const std::vector<TexturedRect>& scene, const PinholeCamera& cam,
                                   const SE3& T_world_cam, TimeNs t_ns = 0) {
-  return render_rows(scene, cam, [&T_world_cam](int) { return T_world_cam; }, t_ns);
+  return render_rows(
+      scene, cam, [&T_world_cam](int) { return T_world_cam; }, t_ns);
 }
 
 /// A small camera for fast tests (320x240, ROS-like intrinsics scaled).

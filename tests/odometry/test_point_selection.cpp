@@ -32,8 +32,8 @@ TEST(SelectStrongest, SameScoresAsAFullSortInImageOrder) {
     std::vector<float> s(n);
     const int k = kind(rng);
     std::exponential_distribution<float> expo(30.0F);
-    std::uniform_int_distribution<int> levels(-2, 6);        // many ties and non-positive values
-    std::lognormal_distribution<float> wide(0.0F, 15.0F);    // many exponents
+    std::uniform_int_distribution<int> levels(-2, 6);      // many ties and non-positive values
+    std::lognormal_distribution<float> wide(0.0F, 15.0F);  // many exponents
     for (auto& v : s) {
       if (k == 0) v = expo(rng);
       if (k == 1) v = static_cast<float>(levels(rng)) / 255.0F;
@@ -60,8 +60,8 @@ TEST(SelectStrongest, TiesAtTheCutOffAreSpreadOverTheImage) {
   select_strongest(s, 2000, out, scratch);
   ASSERT_EQ(out.size(), 2000U);
   for (int row = 0; row < 10; ++row) {
-    const auto in_row = std::count_if(out.begin(), out.end(),
-                                      [row](int i) { return i / 1000 == row; });
+    const auto in_row =
+        std::count_if(out.begin(), out.end(), [row](int i) { return i / 1000 == row; });
     EXPECT_EQ(in_row, 200) << "row " << row;
   }
 }

@@ -15,7 +15,8 @@ namespace kestrel::odometry {
 namespace {
 
 bool long_tests_wanted() {
-  if (const char* env = std::getenv("KESTREL_LONG_TESTS"); env != nullptr && *env == '1') return true;
+  if (const char* env = std::getenv("KESTREL_LONG_TESTS"); env != nullptr && *env == '1')
+    return true;
 #if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
   return true;
 #else

@@ -7,10 +7,10 @@
 #include <limits>
 #include <numbers>
 
+#include "config_files.hpp"
 #include "controller_stage.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/pipeline/pipeline_options.hpp"
-#include "config_files.hpp"
 #include "test_data.hpp"
 
 namespace kestrel::pipeline {
@@ -92,7 +92,8 @@ TEST(ControllerStage, StatesThatStopGiveTheWatchdogFailsafeThenMotorsOff) {
   EXPECT_EQ(r->watchdog, control::WatchdogState::kTripped);
   EXPECT_NEAR(r->command.roll_rad, 0.0, 1e-12);
   EXPECT_NEAR(r->command.thrust_N, w.descent_thrust_fraction * w.hover_thrust_N, 1e-6);
-  EXPECT_LT(r->pwm.us[control::PwmChannels::kThrottle], last.pwm.us[control::PwmChannels::kThrottle]);
+  EXPECT_LT(r->pwm.us[control::PwmChannels::kThrottle],
+            last.pwm.us[control::PwmChannels::kThrottle]);
   EXPECT_FALSE(r->motors_off);
   // After the descent time: cut off.
   r = stage.on_silence(at(w.command_timeout_s + w.descent_max_s + 0.1));
@@ -108,8 +109,7 @@ TEST(ControllerStage, AStateOlderThanTheWatchdogTimeoutIsNotFlown) {
   const ControllerRecord first = stage.on_state(standing(kT0), kT0);
   // The next state comes 0.5 s late (older than the 0.25 s timeout) and 1 m off: not flown.
   const TimeNs t = kT0 + 50 * kMs;
-  const ControllerRecord r =
-      stage.on_state(standing(t, Eigen::Vector3d(0, 0, 0)), t + 500 * kMs);
+  const ControllerRecord r = stage.on_state(standing(t, Eigen::Vector3d(0, 0, 0)), t + 500 * kMs);
   EXPECT_EQ(r.input, ControllerInput::kStaleState);
   EXPECT_EQ(r.watchdog, control::WatchdogState::kTripped);  // its last command is 0.55 s old
   EXPECT_NE(r.pwm, first.pwm);
@@ -125,8 +125,8 @@ TEST(ControllerStage, OdometryDropoutFlagsHoldThenLand) {
   double hold_s = -1.0, land_s = -1.0;
   for (int i = 1; i <= 200; ++i) {  // 10 s of states without an accepted update
     const TimeNs t = kT0 + i * 50 * kMs;
-    const ControllerRecord r = stage.on_state(standing(t, Eigen::Vector3d(1, 2, 0.5),
-                                                       fusion::kFlagVoDropout), t);
+    const ControllerRecord r =
+        stage.on_state(standing(t, Eigen::Vector3d(1, 2, 0.5), fusion::kFlagVoDropout), t);
     if (r.mode == control::SafetyMode::kImuHold && hold_s < 0) hold_s = i * 0.05;
     if (r.mode == control::SafetyMode::kLanding && land_s < 0) land_s = i * 0.05;
     mode = r.mode;
@@ -185,9 +185,9 @@ TEST(ControllerStage, VehicleAxesSetTheHeading) {
   ControllerStage stage(o, true);
   fusion::FusedState s = standing(kT0);
   Eigen::Matrix3d R_world_body;
-  R_world_body.col(0) = Eigen::Vector3d::UnitZ();   // body x up
-  R_world_body.col(1) = Eigen::Vector3d::UnitX();   // body y (right) along world +x
-  R_world_body.col(2) = Eigen::Vector3d::UnitY();   // body z (forward) along world +y
+  R_world_body.col(0) = Eigen::Vector3d::UnitZ();  // body x up
+  R_world_body.col(1) = Eigen::Vector3d::UnitX();  // body y (right) along world +x
+  R_world_body.col(2) = Eigen::Vector3d::UnitY();  // body z (forward) along world +y
   s.state.q_world_body = SO3::from_matrix(R_world_body).unit_quaternion();
   const ControllerRecord r = stage.on_state(s, kT0);
   EXPECT_NEAR(r.yaw_ref_rad, std::numbers::pi / 2, 1e-9);
@@ -203,11 +203,12 @@ TEST(ControllerStageOptions, DefaultsAndFieldsLoad) {
   const fs::path dir = test::fresh_temp_dir("controller");
   EXPECT_FALSE(PipelineOptions::load_yaml(test::write_text(dir / "a.yaml", "input: x\n"))
                    .controller.setpoint.has_value());
-  test::write_text(dir / "ctl.yaml", "controller:\n  mass_kg: 1.5\nsafety:\n  vision_timeout_s: 0.5\n");
-  const PipelineOptions o = PipelineOptions::load_yaml(test::write_text(
-      dir / "b.yaml",
-      "input: x\ncontroller:\n  setpoint: [1, 2, 3, 90]\n  allow_unfused: true\n"
-      "  controller_options: ctl.yaml\n  output: c.csv\n"));
+  test::write_text(dir / "ctl.yaml",
+                   "controller:\n  mass_kg: 1.5\nsafety:\n  vision_timeout_s: 0.5\n");
+  const PipelineOptions o = PipelineOptions::load_yaml(
+      test::write_text(dir / "b.yaml",
+                       "input: x\ncontroller:\n  setpoint: [1, 2, 3, 90]\n  allow_unfused: true\n"
+                       "  controller_options: ctl.yaml\n  output: c.csv\n"));
   ASSERT_TRUE(o.controller.setpoint.has_value());
   EXPECT_NEAR((*o.controller.setpoint)[2], 3.0, 1e-12);
   EXPECT_NEAR((*o.controller.setpoint)[3], std::numbers::pi / 2, 1e-12);  // degrees in the file
@@ -215,11 +216,13 @@ TEST(ControllerStageOptions, DefaultsAndFieldsLoad) {
   EXPECT_EQ(o.controller.controller_options_file, dir / "ctl.yaml");
   EXPECT_EQ(o.controller.controller.mass_kg, 1.5);
   EXPECT_EQ(o.controller.safety.vision_timeout_s, 0.5);
-  EXPECT_EQ(o.controller.pwm.flight_min_throttle_us, control::PwmMapperOptions{}.flight_min_throttle_us);
+  EXPECT_EQ(o.controller.pwm.flight_min_throttle_us,
+            control::PwmMapperOptions{}.flight_min_throttle_us);
   EXPECT_EQ(o.controller.output, "c.csv");
   // The shipped control defaults load through the block.
   const fs::path shipped = fs::path(KESTREL_SOURCE_DIR) / "config" / "controller_default.yaml";
-  test::write_text(dir / "c.yaml", "input: x\ncontroller:\n  controller_options: " + shipped.string() + "\n");
+  test::write_text(dir / "c.yaml",
+                   "input: x\ncontroller:\n  controller_options: " + shipped.string() + "\n");
   EXPECT_EQ(PipelineOptions::load_yaml(dir / "c.yaml").controller.controller.mass_kg,
             control::PositionControllerOptions{}.mass_kg);
 }
@@ -253,7 +256,8 @@ TEST(ControllerStageOptions, ErrorsNameTheConfigFileAndField) {
   };
   int i = 0;
   for (const Case& c : cases) {
-    const fs::path f = test::write_text(dir / ("run" + std::to_string(i++) + ".yaml"), "input: x\n" + c.yaml);
+    const fs::path f =
+        test::write_text(dir / ("run" + std::to_string(i++) + ".yaml"), "input: x\n" + c.yaml);
     const std::string e = test::config_error_of(f);
     EXPECT_NE(e.find(f.string()), std::string::npos) << c.yaml << " -> " << e;
     EXPECT_NE(e.find(c.field), std::string::npos) << c.yaml << " -> " << e;

@@ -27,10 +27,10 @@ constexpr const char* kV101 = "euroc/V1_01_easy_part1";
 // reach the filter after it has started.
 PipelineOptions short_run(const fs::path& dir, Pace pace) {
   const fs::path fusion = test::write_text(dir / "fusion.yaml", "static_init_s: 0.3\n");
-  const fs::path config =
-      test::write_text(dir / "run.yaml", "input: " + (test::shared_data_dir() / kV101).string() +
-                                       "\npace: " + (pace == Pace::kFast ? "fast" : "recorded") +
-                                       "\nmax_frames: 25\nfusion_options: fusion.yaml\n");
+  const fs::path config = test::write_text(
+      dir / "run.yaml", "input: " + (test::shared_data_dir() / kV101).string() +
+                            "\npace: " + (pace == Pace::kFast ? "fast" : "recorded") +
+                            "\nmax_frames: 25\nfusion_options: fusion.yaml\n");
   return PipelineOptions::load_yaml(config);
 }
 
@@ -44,17 +44,20 @@ TEST(PipelineOptions, UnknownKeyNamesFileAndField) {
 
 TEST(PipelineOptions, BadValuesNameTheirField) {
   const fs::path dir = test::fresh_temp_dir("pipeline");
-  EXPECT_NE(test::config_error_of(test::write_text(dir / "a.yaml", "input: x\npace: realtime\n")).find("'pace'"),
+  EXPECT_NE(test::config_error_of(test::write_text(dir / "a.yaml", "input: x\npace: realtime\n"))
+                .find("'pace'"),
             std::string::npos);
-  EXPECT_NE(test::config_error_of(test::write_text(dir / "b.yaml", "input: x\nfusion_queue_capacity: 0\n"))
+  EXPECT_NE(test::config_error_of(
+                test::write_text(dir / "b.yaml", "input: x\nfusion_queue_capacity: 0\n"))
                 .find("'fusion_queue_capacity'"),
             std::string::npos);
-  EXPECT_NE(
-      test::config_error_of(test::write_text(dir / "c.yaml", "input: x\ndrop_stale: maybe\n")).find("'drop_stale'"),
-      std::string::npos);
+  EXPECT_NE(test::config_error_of(test::write_text(dir / "c.yaml", "input: x\ndrop_stale: maybe\n"))
+                .find("'drop_stale'"),
+            std::string::npos);
   EXPECT_NE(test::config_error_of(test::write_text(dir / "d.yaml", "pace: fast\n")).find("'input'"),
             std::string::npos);
-  EXPECT_NE(test::config_error_of(test::write_text(dir / "e.yaml", "input: x\ntracker:\n  no_such_option: 1\n"))
+  EXPECT_NE(test::config_error_of(
+                test::write_text(dir / "e.yaml", "input: x\ntracker:\n  no_such_option: 1\n"))
                 .find("no_such_option"),
             std::string::npos);
   const std::string ref =
@@ -65,8 +68,8 @@ TEST(PipelineOptions, BadValuesNameTheirField) {
 
 TEST(PipelineOptions, RelativePathsAreTakenFromTheConfigFolder) {
   const fs::path dir = test::fresh_temp_dir("pipeline");
-  const PipelineOptions o = PipelineOptions::load_yaml(
-      test::write_text(dir / "ok.yaml", "input: data/seq\npace: recorded\nframe_queue_capacity: 3\n"));
+  const PipelineOptions o = PipelineOptions::load_yaml(test::write_text(
+      dir / "ok.yaml", "input: data/seq\npace: recorded\nframe_queue_capacity: 3\n"));
   EXPECT_EQ(o.input, dir / "data/seq");
   EXPECT_EQ(o.pace, Pace::kRecorded);
   EXPECT_TRUE(o.drops());  // recorded pace drops stale frames unless told otherwise
@@ -322,8 +325,8 @@ TEST(Pipeline, TheCommandWritesOneControllerRowPerFusedState) {
   (void)short_run(dir, Pace::kFast);  // writes run.yaml and fusion.yaml
   std::ofstream(dir / "run.yaml", std::ios::app) << "controller:\n  vehicle_axes: [+z, -y, +x]\n";
   const std::string cmd = std::string(KESTREL_BINARY) + " run --config " +
-                          (dir / "run.yaml").string() + " --out " + (dir / "out").string() +
-                          " > " + (dir / "stdout.txt").string() + " 2>&1";
+                          (dir / "run.yaml").string() + " --out " + (dir / "out").string() + " > " +
+                          (dir / "stdout.txt").string() + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   const auto trajectory = lines_of(dir / "out" / "trajectory.txt");
   const auto csv = lines_of(dir / "out" / "controller.csv");

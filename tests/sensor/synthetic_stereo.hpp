@@ -25,8 +25,8 @@ inline cv::Mat texture(int w, int h, std::uint64_t seed) {
 
 /// A stereo pair of a plane with disparity d(x) = d0 + slope * x: the right image is the
 /// texture, the left one samples it at x - d(x) (bilinear), so the true left disparity is d(x).
-inline void plane_pair(const cv::Mat& tex, double d0, double slope, cv::Mat& left,
-                       cv::Mat& right, cv::Mat& truth) {
+inline void plane_pair(const cv::Mat& tex, double d0, double slope, cv::Mat& left, cv::Mat& right,
+                       cv::Mat& truth) {
   const int w = tex.cols, h = tex.rows;
   right = tex.clone();
   cv::Mat map_x(h, w, CV_32F), map_y(h, w, CV_32F);

@@ -156,7 +156,8 @@ TEST(StereoCalibrationFile, RoundTripAndMissingField) {
   StereoCalibration c;
   c.left = PinholeCamera({450, 451, 370, 250, 752, 480}, {-0.28, 0.07, 0.0001, -0.00003, 0.0});
   c.right = PinholeCamera({452, 453, 372, 251, 752, 480}, {-0.29, 0.08, 0.0, 0.0, 0.0});
-  c.T_left_right = SE3(SO3::exp(Eigen::Vector3d(0.001, -0.002, 0.003)), Eigen::Vector3d(0.11, 0.001, -0.0005));
+  c.T_left_right =
+      SE3(SO3::exp(Eigen::Vector3d(0.001, -0.002, 0.003)), Eigen::Vector3d(0.11, 0.001, -0.0005));
   save_stereo_calibration(dir / "pair.yaml", c, "test");
   const StereoCalibration back = load_stereo_calibration(dir / "pair.yaml");
   EXPECT_NEAR(back.left.fx(), 450.0, 1e-9);
@@ -184,7 +185,7 @@ TEST(Rectification, EurocRowsAgree) {
   const io::EurocSequence seq(test::shared_data_dir() / "euroc" / "V1_01_easy_part1");
   const StereoRectifier rectifier(StereoCalibration::from_euroc(seq));
   const RectifiedStereo& rig = rectifier.rig();
-  EXPECT_NEAR(rig.f, 436.2, 0.5);          // the rectified focal length
+  EXPECT_NEAR(rig.f, 436.2, 0.5);  // the rectified focal length
   EXPECT_NEAR(rig.baseline_m, 0.110, 0.001);
   // Corners of the rectified left view, found again in the rectified right view by normalised
   // cross-correlation over a band of rows: their rows agree within 0.5 px.
@@ -195,13 +196,17 @@ TEST(Rectification, EurocRowsAgree) {
     rectifier.rectify(pair.left, pair.right, l, r);
     std::vector<cv::Point2f> corners;
     cv::goodFeaturesToTrack(l, corners, 150, 0.05, 15, cv::Mat(), 7);
-    cv::cornerSubPix(l, corners, {5, 5}, {-1, -1}, {cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 0.01});
+    cv::cornerSubPix(l, corners, {5, 5}, {-1, -1},
+                     {cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 0.01});
     constexpr int kHalf = 7, kBand = 6, kMaxDisp = 80;
     for (const auto& c : corners) {
       const int u = cvRound(c.x), v = cvRound(c.y);
-      if (u - kHalf - kMaxDisp < 0 || u + kHalf >= l.cols || v - kHalf - kBand < 0 || v + kHalf + kBand >= l.rows) continue;
+      if (u - kHalf - kMaxDisp < 0 || u + kHalf >= l.cols || v - kHalf - kBand < 0 ||
+          v + kHalf + kBand >= l.rows)
+        continue;
       const cv::Mat templ = l(cv::Rect(u - kHalf, v - kHalf, 2 * kHalf + 1, 2 * kHalf + 1));
-      const cv::Mat search = r(cv::Rect(u - kHalf - kMaxDisp, v - kHalf - kBand, 2 * kHalf + 1 + kMaxDisp, 2 * kHalf + 1 + 2 * kBand));
+      const cv::Mat search = r(cv::Rect(u - kHalf - kMaxDisp, v - kHalf - kBand,
+                                        2 * kHalf + 1 + kMaxDisp, 2 * kHalf + 1 + 2 * kBand));
       cv::Mat score;
       cv::matchTemplate(search, templ, score, cv::TM_CCOEFF_NORMED);
       double best = 0.0;
@@ -209,7 +214,8 @@ TEST(Rectification, EurocRowsAgree) {
       cv::minMaxLoc(score, nullptr, &best, nullptr, &at);
       if (best < 0.9 || at.y == 0 || at.y == score.rows - 1) continue;
       // Parabola through the peak's column for the subpixel row.
-      const float a = score.at<float>(at.y - 1, at.x), b = score.at<float>(at.y, at.x), cc = score.at<float>(at.y + 1, at.x);
+      const float a = score.at<float>(at.y - 1, at.x), b = score.at<float>(at.y, at.x),
+                  cc = score.at<float>(at.y + 1, at.x);
       const double sub = 0.5 * double(a - cc) / double(a - 2 * b + cc);
       dy.push_back(at.y + sub - kBand);  // both windows sit on row v: the offset is the row error
     }

@@ -3,11 +3,11 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 
 namespace kestrel::test {
 
@@ -36,11 +36,11 @@ inline std::filesystem::path fresh_temp_dir(const std::string& name) {
 }  // namespace kestrel::test
 
 /// Skips the current test with a message unless `relative` exists under the shared data.
-#define KESTREL_REQUIRE_DATA(relative)                                                   \
-  do {                                                                                   \
-    const auto kestrel_data_path_ = ::kestrel::test::shared_data_dir() / (relative);     \
-    if (!std::filesystem::exists(kestrel_data_path_)) {                                  \
-      GTEST_SKIP() << "shared data not found: " << kestrel_data_path_.string()           \
+#define KESTREL_REQUIRE_DATA(relative)                                                      \
+  do {                                                                                      \
+    const auto kestrel_data_path_ = ::kestrel::test::shared_data_dir() / (relative);        \
+    if (!std::filesystem::exists(kestrel_data_path_)) {                                     \
+      GTEST_SKIP() << "shared data not found: " << kestrel_data_path_.string()              \
                    << " (set KESTREL_DATA_DIR to the shared/data folder to run this test)"; \
-    }                                                                                    \
+    }                                                                                       \
   } while (0)

@@ -27,9 +27,9 @@ struct ChannelCalibration {
 struct PwmMapperOptions {
   /// Roll, pitch, throttle, yaw (PwmChannels order).
   std::array<ChannelCalibration, 4> channels{};
-  double full_stick_tilt_deg = 45.0;       ///< tilt at full roll/pitch stick (table C.3)
+  double full_stick_tilt_deg = 45.0;         ///< tilt at full roll/pitch stick (table C.3)
   double full_stick_yaw_rate_deg_s = 200.0;  ///< yaw rate at full yaw stick (table C.3)
-  double full_throttle_thrust_N = 28.0;    ///< collective thrust at max throttle
+  double full_throttle_thrust_N = 28.0;      ///< collective thrust at max throttle
   /// The mapped throttle never drops below this while flying (motors keep spinning); only
   /// PwmMapper::motors_off() goes lower.
   int flight_min_throttle_us = 1060;

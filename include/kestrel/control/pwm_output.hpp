@@ -54,7 +54,7 @@ struct SysfsPwmOptions {
   std::filesystem::path chip = "/sys/class/pwm/pwmchip0";
   std::array<int, 4> channel_index{0, 1, 2, 3};  ///< pwmN of roll, pitch, throttle, yaw
   std::int64_t period_ns = 20'000'000;           ///< 50 Hz servo frame
-  int export_timeout_ms = 500;  ///< wait for the kernel to create pwmN after exporting it
+  int export_timeout_ms = 500;   ///< wait for the kernel to create pwmN after exporting it
   bool disable_on_close = true;  ///< stop the pulses on exit: the FC's signal-loss failsafe
 };
 

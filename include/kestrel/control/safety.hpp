@@ -17,14 +17,14 @@
 namespace kestrel::control {
 
 struct SafetyOptions {
-  double vision_timeout_s = 0.3;    ///< no odometry for longer: odometry lost, hold on the IMU
-  double imu_hold_timeout_s = 5.0;  ///< odometry lost for longer: land
+  double vision_timeout_s = 0.3;      ///< no odometry for longer: odometry lost, hold on the IMU
+  double imu_hold_timeout_s = 5.0;    ///< odometry lost for longer: land
   double max_position_sigma_m = 1.0;  ///< a larger position uncertainty is an estimator failure
-  double landing_speed_m_s = 0.4;   ///< descent speed of the reference while landing
-  double ground_z_m = 0.0;          ///< the floor, world z
-  double landed_height_m = 0.10;    ///< estimated height under which, ...
-  double landed_speed_m_s = 0.15;   ///< ... at a vertical speed below this, ...
-  double landed_hold_s = 1.0;       ///< ... for this long, the vehicle has landed: motors off
+  double landing_speed_m_s = 0.4;     ///< descent speed of the reference while landing
+  double ground_z_m = 0.0;            ///< the floor, world z
+  double landed_height_m = 0.10;      ///< estimated height under which, ...
+  double landed_speed_m_s = 0.15;     ///< ... at a vertical speed below this, ...
+  double landed_hold_s = 1.0;         ///< ... for this long, the vehicle has landed: motors off
   /// Open-loop descent: this fraction of the hover thrust, level, until blind_descent_max_s.
   double blind_descent_thrust_fraction = 0.95;
   double blind_descent_max_s = 10.0;
@@ -119,9 +119,9 @@ BoundedCommand bound_command(const AttitudeThrustCommand& command, const Command
                              double fallback_thrust_N);
 
 struct WatchdogOptions {
-  double command_timeout_s = 0.25;  ///< no command for longer: trip
-  double descent_thrust_fraction = 0.95;  ///< of the learnt hover thrust, level
-  double descent_max_s = 8.0;       ///< then motors off (cut-off)
+  double command_timeout_s = 0.25;         ///< no command for longer: trip
+  double descent_thrust_fraction = 0.95;   ///< of the learnt hover thrust, level
+  double descent_max_s = 8.0;              ///< then motors off (cut-off)
   double hover_thrust_N = 1.2 * kGravity;  ///< until commands have taught it better
   double hover_learning_time_s = 2.0;      ///< low-pass time constant of the learnt hover thrust
 };

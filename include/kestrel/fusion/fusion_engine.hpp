@@ -29,7 +29,7 @@ inline constexpr double kInFlightImuNoiseInflation = 15.0;
 
 /// Every option of the fusion, with its default; YAML keys are the field names.
 struct FusionOptions {
-  ImuNoiseDensities noise;          ///< from the IMU sensor YAML (EuRoC imu0/sensor.yaml)
+  ImuNoiseDensities noise;  ///< from the IMU sensor YAML (EuRoC imu0/sensor.yaml)
   /// The filter uses noise's white-noise densities (gyro, accel) times this factor; the bias
   /// random walks as given. 0 (the default): not set here; set_imu_noise(), reading a real
   /// IMU's sensor YAML, then makes it the YAML's `in_flight_noise_inflation` or
@@ -43,7 +43,7 @@ struct FusionOptions {
   double time_offset_s = 0.0;
   bool estimate_time_offset = true;
   double init_sigma_time_offset_s = 0.02;
-  double gravity_m_s2 = 9.81;       ///< world z is up; g = (0, 0, -gravity)
+  double gravity_m_s2 = 9.81;  ///< world z is up; g = (0, 0, -gravity)
   /// Odometry camera in the body (IMU) frame, EuRoC T_BS of cam0 (identity if the odometry
   /// already reports body poses).
   SE3 T_body_cam;
@@ -161,7 +161,7 @@ std::string describe_flags(std::uint32_t flags);
 struct FusedState {
   TimeNs t_ns = 0;
   NominalState state;
-  Eigen::Matrix<double, 9, 1> sigma;  ///< std of [p, theta, v]
+  Eigen::Matrix<double, 9, 1> sigma;                          ///< std of [p, theta, v]
   Eigen::Vector3d sigma_gyro_bias = Eigen::Vector3d::Zero();  ///< std of b_g
   double sigma_time_offset_s = 0.0;                           ///< std of t_d
   std::uint32_t flags = kFlagNone;
@@ -172,7 +172,7 @@ struct FusedState {
 struct RelativePoseMeasurement {
   TimeNs t_ref_ns = 0;
   TimeNs t_ns = 0;
-  SE3 T_ref_cur;          ///< camera frame at t_ns in the camera frame at t_ref_ns
+  SE3 T_ref_cur;  ///< camera frame at t_ns in the camera frame at t_ref_ns
   /// Left perturbation [v, w] in the reference frame (TrackResult's). NaN until set: a
   /// measurement whose covariance was never filled in is rejected as invalid (counted in
   /// FusionCounters::updates_invalid) instead of being applied with whatever the memory held.
@@ -186,17 +186,17 @@ struct RelativePoseMeasurement {
 
 struct FusionCounters {
   std::size_t imu_samples = 0;
-  std::size_t imu_dropped_late = 0;       ///< arrived older than the processed time
-  std::size_t imu_before_start = 0;       ///< at or before a given initial state (not an error)
-  std::size_t imu_dropped_invalid = 0;    ///< non-finite values
-  std::size_t imu_out_of_range = 0;       ///< an axis beyond accel/gyro_range
-  std::size_t imu_duplicate = 0;          ///< same time stamp as the previous sample
+  std::size_t imu_dropped_late = 0;     ///< arrived older than the processed time
+  std::size_t imu_before_start = 0;     ///< at or before a given initial state (not an error)
+  std::size_t imu_dropped_invalid = 0;  ///< non-finite values
+  std::size_t imu_out_of_range = 0;     ///< an axis beyond accel/gyro_range
+  std::size_t imu_duplicate = 0;        ///< same time stamp as the previous sample
   std::size_t imu_gaps = 0;
   std::size_t imu_gaps_beyond_horizon = 0;  ///< gaps longer than imu_horizon_s
   std::size_t updates_accepted = 0;
   std::size_t updates_gated = 0;
   std::size_t updates_invalid = 0;
-  std::size_t updates_no_reference = 0;   ///< reference time was not the clone's
+  std::size_t updates_no_reference = 0;  ///< reference time was not the clone's
   std::size_t measurements_dropped_late = 0;
   std::size_t measurements_before_init = 0;
   std::size_t measurements_outside_imu = 0;  ///< later than imu_horizon_s after the last IMU sample

@@ -71,10 +71,10 @@ struct NominalState {
 
 /// Noise densities of the continuous model (thesis eq. 4.5: dQ = dt * cQ).
 struct ImuNoiseDensities {
-  double gyro_noise = 1.6968e-4;   ///< rad/s/sqrt(Hz)  (EuRoC ADIS16448 defaults)
-  double gyro_walk = 1.9393e-5;    ///< rad/s^2/sqrt(Hz)
-  double accel_noise = 2.0e-3;     ///< m/s^2/sqrt(Hz)
-  double accel_walk = 3.0e-3;      ///< m/s^3/sqrt(Hz)
+  double gyro_noise = 1.6968e-4;  ///< rad/s/sqrt(Hz)  (EuRoC ADIS16448 defaults)
+  double gyro_walk = 1.9393e-5;   ///< rad/s^2/sqrt(Hz)
+  double accel_noise = 2.0e-3;    ///< m/s^2/sqrt(Hz)
+  double accel_walk = 3.0e-3;     ///< m/s^3/sqrt(Hz)
 };
 
 /// One IMU reading held constant over a step of length dt_s (the mean of two samples).
@@ -86,8 +86,8 @@ struct ImuReading {
 /// Outcome of one relative-pose update, with its numbers (never a bare bool).
 enum class UpdateOutcome {
   kAccepted,
-  kRejectedGate,       ///< Mahalanobis distance above the chi-square gate
-  kRejectedInvalid,    ///< non-finite measurement or covariance, or S not positive-definite
+  kRejectedGate,     ///< Mahalanobis distance above the chi-square gate
+  kRejectedInvalid,  ///< non-finite measurement or covariance, or S not positive-definite
 };
 std::string_view to_string(UpdateOutcome outcome);
 

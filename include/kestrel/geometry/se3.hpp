@@ -31,9 +31,7 @@ class SE3 {
   [[nodiscard]] const SO3& so3() const { return so3_; }
   [[nodiscard]] const Eigen::Vector3d& translation() const { return t_; }
   [[nodiscard]] Eigen::Matrix3d rotation_matrix() const { return so3_.matrix(); }
-  [[nodiscard]] const Eigen::Quaterniond& unit_quaternion() const {
-    return so3_.unit_quaternion();
-  }
+  [[nodiscard]] const Eigen::Quaterniond& unit_quaternion() const { return so3_.unit_quaternion(); }
   [[nodiscard]] Eigen::Matrix4d matrix() const;
   [[nodiscard]] Eigen::Matrix<double, 3, 4> matrix3x4() const;
 

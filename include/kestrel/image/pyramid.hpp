@@ -2,11 +2,10 @@
 // depth pyramids that never average across occlusion boundaries or invalid pixels.
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 namespace kestrel::image {
 
@@ -31,8 +30,7 @@ cv::Size half_size(cv::Size size);
 
 /// Halves a CV_32FC1 intensity image into `out` (reused when sized right). `scratch` holds the
 /// Gaussian-smoothed image (unused for kBox).
-void downsample_intensity(const cv::Mat& in, cv::Mat& out, PyramidFilter filter,
-                          cv::Mat& scratch);
+void downsample_intensity(const cv::Mat& in, cv::Mat& out, PyramidFilter filter, cv::Mat& scratch);
 
 /// Halves a CV_32FC1 depth map (metres, 0 = invalid). Among the valid depths of each 2x2
 /// block, only those within `max_relative_spread` of the block's nearest depth are averaged

@@ -5,8 +5,8 @@
 
 #include <Eigen/Core>
 #include <filesystem>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "kestrel/io/camera_io.hpp"
@@ -84,9 +84,7 @@ class EurocSequence {
   [[nodiscard]] const std::filesystem::path& mav0() const { return mav0_; }
   /// Stereo pairs: cam0 and cam1 frames with identical time stamps.
   [[nodiscard]] std::size_t stereo_size() const { return pairs_.size(); }
-  [[nodiscard]] TimeNs stereo_timestamp(std::size_t i) const {
-    return cam0_[pairs_[i].first].t_ns;
-  }
+  [[nodiscard]] TimeNs stereo_timestamp(std::size_t i) const { return cam0_[pairs_[i].first].t_ns; }
   [[nodiscard]] StereoImages load_stereo(std::size_t i) const;
   [[nodiscard]] const std::vector<TimedFile>& cam0_frames() const { return cam0_; }
   /// Decodes one grayscale image of cam0's list; errors name the file.
@@ -96,7 +94,9 @@ class EurocSequence {
   [[nodiscard]] CameraFile cam1_calibration() const;
   [[nodiscard]] bool has_imu() const;
   [[nodiscard]] std::filesystem::path imu_csv() const { return mav0_ / "imu0" / "data.csv"; }
-  [[nodiscard]] ImuNoise imu_noise() const { return load_imu_noise(mav0_ / "imu0" / "sensor.yaml"); }
+  [[nodiscard]] ImuNoise imu_noise() const {
+    return load_imu_noise(mav0_ / "imu0" / "sensor.yaml");
+  }
   /// The first ground-truth CSV found among groundtruth_cam0/, state_groundtruth_estimate0/,
   /// gt0/, leica0/ (in that order), or nullopt.
   [[nodiscard]] std::optional<std::filesystem::path> groundtruth_csv() const;

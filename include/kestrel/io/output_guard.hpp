@@ -19,8 +19,7 @@ std::string provenance_line(std::string_view command);
 /// InputError naming the file and what wrote it. Creates missing parent folders and checks
 /// that the file can be opened for writing (without changing an existing one), so that an
 /// unwritable path is found before the work, not after it.
-void check_can_write_file(const std::filesystem::path& path, std::string_view command,
-                          bool force);
+void check_can_write_file(const std::filesystem::path& path, std::string_view command, bool force);
 
 /// The same for an image or other binary output (PNG, PFM), which has no room for a provenance
 /// line: an existing file is replaced only with `force`, whatever wrote it. (Inside a folder

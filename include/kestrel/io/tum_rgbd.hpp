@@ -3,8 +3,8 @@
 #pragma once
 
 #include <filesystem>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,8 +39,9 @@ std::vector<TimedFile> read_tum_file_list(const std::filesystem::path& list_file
 /// Greedy nearest-time association as the benchmark's associate.py: every pair with
 /// |t_a - t_b| < max_diff, closest first, each element used at most once; returned as
 /// (index in a, index in b) sorted by a.
-std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(
-    const std::vector<TimeNs>& a, const std::vector<TimeNs>& b, TimeNs max_diff_ns);
+std::vector<std::pair<std::size_t, std::size_t>> associate_by_time(const std::vector<TimeNs>& a,
+                                                                   const std::vector<TimeNs>& b,
+                                                                   TimeNs max_diff_ns);
 
 /// Decodes a TUM depth PNG (16-bit, `depth_scale` units per metre) into metres.
 /// Throws InputError naming the file if it is missing, undecodable, not 16-bit single

@@ -147,11 +147,11 @@ struct EurocSeedSummary {
   };
   std::string name;
   int draws = 0;
-  Spread ratio;           ///< fused / chained position RMSE, target: median <= 0.4, worst <= 0.7
-  Spread bias_at_check;   ///< target <= 0.003 rad/s (draws without a bias reference: none)
-  Spread bias_max_after;  ///< target <= 0.003 rad/s
-  Spread gap_max_error;   ///< target < 0.3 m
-  int bias_draws = 0;     ///< draws with a bias reference
+  Spread ratio;             ///< fused / chained position RMSE, target: median <= 0.4, worst <= 0.7
+  Spread bias_at_check;     ///< target <= 0.003 rad/s (draws without a bias reference: none)
+  Spread bias_max_after;    ///< target <= 0.003 rad/s
+  Spread gap_max_error;     ///< target < 0.3 m
+  int bias_draws = 0;       ///< draws with a bias reference
   int ratio_above_one = 0;  ///< draws where fusing is worse than chaining
   /// Gap samples inside the filter's 3-sigma bound, over all draws (target >= 95 %).
   int gap_samples = 0, gap_samples_inside_3sigma = 0;

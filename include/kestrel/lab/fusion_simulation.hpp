@@ -128,8 +128,8 @@ struct TimeOffsetRun {
   /// The first time |t_d estimate - offset| is below `tolerance_s` (it may leave again);
   /// negative if never.
   double first_within_s = -1.0;
-  double fused_rmse_m = 0.0;         ///< position, at every odometry stamp, whole flight
-  double fused_rmse_after_m = 0.0;   ///< the same from `compare_after_s` on
+  double fused_rmse_m = 0.0;        ///< position, at every odometry stamp, whole flight
+  double fused_rmse_after_m = 0.0;  ///< the same from `compare_after_s` on
   std::vector<double> t_s, estimate_s;
 };
 TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::FusionOptions& fusion,

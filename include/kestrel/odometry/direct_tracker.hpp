@@ -7,11 +7,10 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "kestrel/core/time.hpp"
 #include "kestrel/geometry/pinhole_camera.hpp"
@@ -32,7 +31,7 @@ struct RgbdFrame {
 /// One rectified stereo frame in disparity space (thesis 2.4): the LEFT view and its disparity.
 struct DisparityFrame {
   TimeNs t_ns = 0;
-  cv::Mat image;         ///< rectified left view: CV_8UC3 BGR, CV_8UC1, or CV_32FC1 in [0, 1]
+  cv::Mat image;  ///< rectified left view: CV_8UC3 BGR, CV_8UC1, or CV_32FC1 in [0, 1]
   /// CV_32FC1, d = uL - uR in full-resolution pixels; <= 0, NaN or inf = no disparity
   /// (sensor::kNoDisparity is +inf).
   cv::Mat disparity_px;
@@ -50,13 +49,13 @@ struct RollingShutter {
 
 enum class TrackFailure : std::uint8_t {
   kNone = 0,
-  kInvalidInput,     ///< wrong size or type, empty image
-  kTooFewPoints,     ///< the reference has too few usable points (no depth, no texture)
-  kNoOverlap,        ///< too few reference points project into the current image
-  kHighResidual,     ///< robust sigma above max_sigma: the images do not match
-  kLowInlierRatio,   ///< too few residuals within the Tukey cut-off
-  kImplausibleMotion,///< motion to the reference beyond max_translation_m / max_rotation_deg
-  kNumerical,        ///< singular normal equations or non-finite values
+  kInvalidInput,       ///< wrong size or type, empty image
+  kTooFewPoints,       ///< the reference has too few usable points (no depth, no texture)
+  kNoOverlap,          ///< too few reference points project into the current image
+  kHighResidual,       ///< robust sigma above max_sigma: the images do not match
+  kLowInlierRatio,     ///< too few residuals within the Tukey cut-off
+  kImplausibleMotion,  ///< motion to the reference beyond max_translation_m / max_rotation_deg
+  kNumerical,          ///< singular normal equations or non-finite values
 };
 std::string_view to_string(TrackFailure failure);
 
@@ -66,19 +65,19 @@ struct TrackResult {
   TrackFailure failure = TrackFailure::kNone;
   [[nodiscard]] bool ok() const { return failure == TrackFailure::kNone; }
 
-  SE3 T_world_cam;  ///< pose of this frame (world = first frame); on failure the prediction
-  SE3 T_ref_cur;    ///< this frame relative to the reference (keyframe) it was aligned to
+  SE3 T_world_cam;      ///< pose of this frame (world = first frame); on failure the prediction
+  SE3 T_ref_cur;        ///< this frame relative to the reference (keyframe) it was aligned to
   TimeNs ref_t_ns = 0;  ///< time stamp of that reference frame
   /// Covariance of xi in T_ref_cur = exp(xi) * estimate, xi = [v, w] in the reference frame:
   /// sigma^2 (J^T W J)^-1 of the finest level iterated (pose block, gain/bias marginalised).
   Matrix6d covariance = Matrix6d::Identity();
 
-  bool converged = false;   ///< the finest level stopped by a tolerance, not the cap
-  int iterations = 0;       ///< Gauss-Newton iterations over all levels
-  double sigma = 0.0;       ///< final robust sigma (intensity units, [0, 1] images) ...
+  bool converged = false;     ///< the finest level stopped by a tolerance, not the cap
+  int iterations = 0;         ///< Gauss-Newton iterations over all levels
+  double sigma = 0.0;         ///< final robust sigma (intensity units, [0, 1] images) ...
   int photometric_level = 0;  ///< ... on this pyramid level (> finest_level: a blurred frame)
-  double depth_sigma = 0.0; ///< final robust sigma of the geometric residuals (m), 0 if unused
-  int depth_points = 0;     ///< reference points with a geometric residual on that level
+  double depth_sigma = 0.0;   ///< final robust sigma of the geometric residuals (m), 0 if unused
+  int depth_points = 0;       ///< reference points with a geometric residual on that level
   double depth_inlier_ratio = 0.0;  ///< geometric residuals within c sigma / points with a normal
   /// Residuals within c sigma / reference points, and reference points that project into the
   /// image / all, as measured by the last alignment (also on a failed one); 1 for a frame that
@@ -86,8 +85,8 @@ struct TrackResult {
   /// first frame with too few points).
   double inlier_ratio = 0.0;
   double overlap = 0.0;
-  int points = 0;             ///< reference points on the finest level iterated
-  double gain = 0.0;          ///< g of I_ref = (1 + g) I_cur + b
+  int points = 0;     ///< reference points on the finest level iterated
+  double gain = 0.0;  ///< g of I_ref = (1 + g) I_cur + b
   double bias = 0.0;
   bool new_keyframe = false;  ///< this frame became the reference for the next ones
   /// The photometric alignment failed (blur) or a finer level jumped away from the coarser

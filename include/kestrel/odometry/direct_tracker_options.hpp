@@ -119,8 +119,8 @@ struct SolverOptions {
   /// ... or when the step's size changes by less than this from one iteration to the next (it
   /// oscillates at the noise floor), in the same pixels.
   double step_change_tolerance_px = 1e-4;
-  int max_iterations_finest = 300;        ///< on level 0
-  int max_iterations_coarse = 50;         ///< on every other level
+  int max_iterations_finest = 300;  ///< on level 0
+  int max_iterations_coarse = 50;   ///< on every other level
   /// A step that raises the robust cost (at the sigma it was computed with) is undone and ends
   /// the level: Gauss-Newton has reached the noise floor.
   bool stop_on_cost_increase = true;
@@ -199,12 +199,12 @@ struct FallbackOptions {
 
 /// Failure detection: a frame failing these is reported as a failure, never as a pose.
 struct HealthOptions {
-  double min_overlap = 0.3;         ///< fewer of the points inside the image: failure
-  double min_inlier_ratio = 0.3;    ///< fewer points with |r| < c sigma: failure
-  double max_sigma = 0.1;           ///< larger final robust sigma (intensity units): failure
-  int min_points = 100;             ///< fewer usable points on a level: failure
-  double max_translation_m = 0.5;   ///< larger motion to the reference: failure
-  double max_rotation_deg = 45.0;   ///< ditto
+  double min_overlap = 0.3;        ///< fewer of the points inside the image: failure
+  double min_inlier_ratio = 0.3;   ///< fewer points with |r| < c sigma: failure
+  double max_sigma = 0.1;          ///< larger final robust sigma (intensity units): failure
+  int min_points = 100;            ///< fewer usable points on a level: failure
+  double max_translation_m = 0.5;  ///< larger motion to the reference: failure
+  double max_rotation_deg = 45.0;  ///< ditto
 
   template <typename Visitor>
   void visit_fields(Visitor&& v) {

@@ -21,8 +21,8 @@ using Matrix8d = Eigen::Matrix<double, 8, 8>;
 inline Eigen::Matrix<double, 1, 6> photometric_pose_jacobian(const Eigen::Vector3d& P, double gx,
                                                              double gy, double fx, double fy) {
   const double inv_z = 1.0 / P.z();
-  const double a = gx * fx * inv_z;  // d I / d X
-  const double b = gy * fy * inv_z;  // d I / d Y
+  const double a = gx * fx * inv_z;                   // d I / d X
+  const double b = gy * fy * inv_z;                   // d I / d Y
   const double c = -(a * P.x() + b * P.y()) * inv_z;  // d I / d Z
   Eigen::Matrix<double, 1, 6> J;
   // Translation: dP/dv = I. Rotation: dP/dw = -[P]x, so dI/dw = P x (a, b, c).
@@ -51,7 +51,7 @@ inline Vector8d photometric_jacobian(const Eigen::Vector3d& P, double gx, double
 /// (a constant, IC-style J_g) fails far from it (a 4 deg roll stalls): J_g is computed per
 /// iteration, 6 multiply-adds per point. Tested against central differences.
 inline Eigen::Matrix<double, 1, 6> point_to_plane_pose_jacobian(const Eigen::Vector3d& Q_ref,
-                                                                 const Eigen::Vector3d& n) {
+                                                                const Eigen::Vector3d& n) {
   Eigen::Matrix<double, 1, 6> J;
   J.head<3>() = -n.transpose();
   J.tail<3>() = -Q_ref.cross(n).transpose();

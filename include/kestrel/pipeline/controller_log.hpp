@@ -24,7 +24,7 @@ enum class ControllerInput {
 std::string_view to_string(ControllerInput input);
 
 struct ControllerRecord {
-  TimeNs now_ns = 0;    ///< when the output was decided (data time, see ControllerStage)
+  TimeNs now_ns = 0;      ///< when the output was decided (data time, see ControllerStage)
   TimeNs state_t_ns = 0;  ///< the state acted on (kNoState: the last one received)
   ControllerInput input = ControllerInput::kState;
   std::uint32_t fusion_flags = 0;  ///< the state's fusion::FusionFlag bits (kNoState: 0)
@@ -32,7 +32,7 @@ struct ControllerRecord {
   control::WatchdogState watchdog = control::WatchdogState::kActive;
   /// The state was not fused (camera source) and allow_unfused is off: motors off.
   bool disarmed = false;
-  bool motors_off = false;  ///< the PWM is PwmMapper::motors_off()
+  bool motors_off = false;                          ///< the PWM is PwmMapper::motors_off()
   Eigen::Vector3d p_ref = Eigen::Vector3d::Zero();  ///< the reference flown (world)
   double yaw_ref_rad = 0.0;
   control::AttitudeThrustCommand command;  ///< what the pulses stand for (zero if motors off)

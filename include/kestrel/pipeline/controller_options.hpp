@@ -57,8 +57,8 @@ struct ControllerStageOptions {
   control::PositionControllerOptions controller;
   control::PwmMapperOptions pwm;
   control::SafetyOptions safety;
-  control::WatchdogOptions watchdog;  ///< header defaults (no YAML of its own)
-  control::CommandLimits limits;      ///< header defaults (no YAML of its own)
+  control::WatchdogOptions watchdog;                ///< header defaults (no YAML of its own)
+  control::CommandLimits limits;                    ///< header defaults (no YAML of its own)
   std::filesystem::path output = "controller.csv";  ///< per-output CSV, under --out
 
   /// The keys of the `controller:` block (io/option_fields.hpp; PipelineOptions reads the

@@ -43,10 +43,10 @@ struct PipelineReport {
   std::vector<ControllerRecord> controller;
   /// Unfused states (camera source) and allow_unfused off: every output is motors off.
   bool controller_disarmed = false;
-  std::size_t stereo_pairs = 0;            ///< pairs the source emitted
-  std::string matcher;                     ///< the stereo matcher that ran, its options
-  double mean_disparity_fill = 0.0;        ///< share of pixels with a disparity, per pair
-  std::size_t imu_samples = 0;             ///< IMU samples the source emitted
+  std::size_t stereo_pairs = 0;      ///< pairs the source emitted
+  std::string matcher;               ///< the stereo matcher that ran, its options
+  double mean_disparity_fill = 0.0;  ///< share of pixels with a disparity, per pair
+  std::size_t imu_samples = 0;       ///< IMU samples the source emitted
   fusion::FusionCounters fusion_counters;
   /// The fusion's options as run: with the folder's IMU noise and T_body_cam, reorder 0.
   fusion::FusionOptions fusion_options;

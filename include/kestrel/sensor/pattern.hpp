@@ -18,16 +18,16 @@ enum class PatternColors {
 };
 
 struct PatternOptions {
-  int lines = 200;                ///< thesis 2.3: 200 lines
-  int width = 1280;               ///< projector resolution (LG PH300: 1280x720)
+  int lines = 200;   ///< thesis 2.3: 200 lines
+  int width = 1280;  ///< projector resolution (LG PH300: 1280x720)
   int height = 720;
   /// Thesis 2.3 gives each line a random position and orientation, no length: by default a
   /// line crosses the whole image (through a random point, at a random angle). false: segments
   /// with lengths uniform in [min_length_px, max_length_px].
   bool full_lines = true;
-  double min_length_px = 60.0;    ///< segment length range (full_lines = false)
+  double min_length_px = 60.0;  ///< segment length range (full_lines = false)
   double max_length_px = 400.0;
-  int min_thickness_px = 2;       ///< line width range (pixels of the pattern image)
+  int min_thickness_px = 2;  ///< line width range (pixels of the pattern image)
   int max_thickness_px = 4;
   PatternColors colors = PatternColors::kPrimaries;
   bool antialiased = true;

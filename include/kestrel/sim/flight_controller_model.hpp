@@ -21,20 +21,20 @@ struct FlightControllerModelOptions {
   int channel_min_us = 1000;
   int channel_centre_us = 1500;
   int channel_max_us = 2000;
-  int deadband_us = 8;          ///< around the centre of roll, pitch and yaw
-  int throttle_idle_us = 1050;  ///< at or below: motors at idle, controllers reset
-  double max_tilt_deg = 45.0;          ///< full roll/pitch stick (table C.3)
-  double max_yaw_rate_deg_s = 200.0;   ///< full yaw stick (table C.3)
+  int deadband_us = 8;                ///< around the centre of roll, pitch and yaw
+  int throttle_idle_us = 1050;        ///< at or below: motors at idle, controllers reset
+  double max_tilt_deg = 45.0;         ///< full roll/pitch stick (table C.3)
+  double max_yaw_rate_deg_s = 200.0;  ///< full yaw stick (table C.3)
   /// Full throttle asks for this fraction of the rotors' maximum total thrust.
   double max_throttle_thrust_fraction = 1.0;
 
   // --- attitude (P on the rotation error) and body-rate (PI) loops ---
-  double attitude_gain_rp = 7.0;   ///< rad/s per rad, roll and pitch
+  double attitude_gain_rp = 7.0;  ///< rad/s per rad, roll and pitch
   double attitude_gain_yaw = 3.0;
-  double rate_gain_rp = 22.0;      ///< 1/s: angular acceleration per rad/s of rate error
+  double rate_gain_rp = 22.0;  ///< 1/s: angular acceleration per rad/s of rate error
   double rate_gain_yaw = 8.0;
-  double rate_integral_gain = 10.0;   ///< 1/s^2
-  double rate_integral_limit = 2.0;   ///< rad/s^2, anti-windup clamp
+  double rate_integral_gain = 10.0;    ///< 1/s^2
+  double rate_integral_limit = 2.0;    ///< rad/s^2, anti-windup clamp
   double max_body_rate_deg_s = 300.0;  ///< the attitude loop never asks for more
 
   void validate() const;
