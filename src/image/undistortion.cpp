@@ -76,45 +76,47 @@ Undistorter::Undistorter(const PinholeCamera& distorted)
   }
 }
 
-void Undistorter::undistort_intensity(const cv::Mat& in, cv::Mat& out) const {
-  if (identity_) {
-    in.copyTo(out);
-    return;
-  }
+bool Undistorter::by_table(const cv::Mat& in) const {
+  return in.type() == CV_32FC1 && in.cols == undistorted_.width() &&
+         in.rows == undistorted_.height();
+}
+
+template <class RowKernel>
+void Undistorter::remap_rows(const cv::Mat& in, cv::Mat& out, RowKernel row_kernel) const {
   const int w = undistorted_.width(), h = undistorted_.height();
-  if (in.type() != CV_32FC1 || in.cols != w || in.rows != h) {
-    // Replicated border: a constant one would put false edges where the warp samples.
-    cv::remap(in, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    return;
-  }
   cv::Mat scratch;
   const cv::Mat& src = readable_source(in, out, scratch);
   out.create(h, w, CV_32FC1);
   for (int v = 0; v < h; ++v) {
-    const std::size_t row = static_cast<std::size_t>(v) * static_cast<std::size_t>(w);
-    kernels::remap_bilinear_row(src.ptr<float>(), w, bilinear_index_.data() + row,
-                                weight_x_.data() + row, weight_y_.data() + row, out.ptr<float>(v),
-                                w);
+    row_kernel(src.ptr<float>(), static_cast<std::size_t>(v) * static_cast<std::size_t>(w),
+               out.ptr<float>(v), w);
+  }
+}
+
+void Undistorter::undistort_intensity(const cv::Mat& in, cv::Mat& out) const {
+  if (identity_) {
+    in.copyTo(out);
+  } else if (!by_table(in)) {
+    // Replicated border: a constant one would put false edges where the warp samples.
+    cv::remap(in, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  } else {
+    remap_rows(in, out, [this](const float* src, std::size_t row, float* dst, int w) {
+      kernels::remap_bilinear_row(src, w, bilinear_index_.data() + row, weight_x_.data() + row,
+                                  weight_y_.data() + row, dst, w);
+    });
   }
 }
 
 void Undistorter::undistort_depth(const cv::Mat& in, cv::Mat& out) const {
   if (identity_) {
     in.copyTo(out);
-    return;
-  }
-  const int w = undistorted_.width(), h = undistorted_.height();
-  if (in.type() != CV_32FC1 || in.cols != w || in.rows != h) {
+  } else if (!by_table(in)) {
     cv::remap(in, out, map_nearest_, cv::noArray(), cv::INTER_NEAREST, cv::BORDER_CONSTANT,
               cv::Scalar(0));
-    return;
-  }
-  cv::Mat scratch;
-  const cv::Mat& src = readable_source(in, out, scratch);
-  out.create(h, w, CV_32FC1);
-  for (int v = 0; v < h; ++v) {
-    const std::size_t row = static_cast<std::size_t>(v) * static_cast<std::size_t>(w);
-    kernels::remap_nearest_row(src.ptr<float>(), nearest_index_.data() + row, out.ptr<float>(v), w);
+  } else {
+    remap_rows(in, out, [this](const float* src, std::size_t row, float* dst, int w) {
+      kernels::remap_nearest_row(src, nearest_index_.data() + row, dst, w);
+    });
   }
 }
 

@@ -28,6 +28,12 @@ class Undistorter {
   void undistort_depth(const cv::Mat& in, cv::Mat& out) const;
 
  private:
+  // Float images of the camera's size go through the tables, others through cv::remap.
+  [[nodiscard]] bool by_table(const cv::Mat& in) const;
+  // out's rows from `row_kernel(src, first index of the row, out row, width)`.
+  template <class RowKernel>
+  void remap_rows(const cv::Mat& in, cv::Mat& out, RowKernel row_kernel) const;
+
   PinholeCamera undistorted_;
   bool identity_ = true;
   // Float images (every frame of the tracker): per output pixel, the index of the top-left
