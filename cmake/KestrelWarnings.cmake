@@ -16,6 +16,10 @@ endif()
 target_compile_options(kestrel_options INTERFACE -fno-semantic-interposition)
 if(KESTREL_NATIVE)
   target_compile_options(kestrel_options INTERFACE -march=native)
+  # On a CPU whose baseline is Highway's AVX3_DL (AVX-512 with VNNI, VBMI2, BITALG: Ice Lake,
+  # Zen 4), Highway 1.0.3 leaves that static target out of the attainable ones unless asked for,
+  # and every file including it stops with "best baseline should be included in dynamic targets".
+  target_compile_definitions(kestrel_options INTERFACE HWY_WANT_AVX3_DL)
   # GCC 12 flags Eigen's unaligned AVX packet loads of fixed-size vectors (e.g. a Vector3d
   # comma-initialised into a Vector6d) as out of bounds: a known false positive of its
   # -Warray-bounds with -march=native. The ASan build checks real bounds.
