@@ -12,7 +12,8 @@ SE3 SE3::from_matrix(const Eigen::Matrix4d& T) {
 SE3 SE3::exp(const Tangent& xi) {
   const Eigen::Vector3d v = xi.head<3>();
   const Eigen::Vector3d w = xi.tail<3>();
-  return {SO3::exp(w), SO3::left_jacobian(w) * v};
+  const So3ExpAndJacobianProduct e = SO3::exp_and_left_jacobian_times(w, v);
+  return {e.rotation, e.jacobian_times_v};
 }
 
 SE3::Tangent SE3::log() const {
@@ -82,9 +83,17 @@ Eigen::Matrix3d q_block(const Eigen::Vector3d& v, const Eigen::Vector3d& w) {
     c2 = (t2 / 2.0 - 2.0 * sin_half * sin_half) / (t2 * t2);
     c3 = -0.5 * ((1.0 - t2 / 2.0 - c) / (t2 * t2) - 3.0 * (t - s - t2 * t / 6.0) / (t2 * t2 * t));
   }
-  const Eigen::Matrix3d WV = W * V, VW = V * W, WVW = W * V * W;
-  return 0.5 * V + c1 * (WV + VW + WVW) + c2 * (W * WV + VW * W - 3.0 * WVW) +
-         c3 * (WVW * W + W * WVW);
+  // Q = V/2 + c1 (WV + VW + WVW) + c2 (WWV + VWW - 3 WVW) + c3 (WVWW + WWVW), with the skew
+  // products in closed form (d = w.v, u = w x v): WV = v w^T - d I, VW = w v^T - d I,
+  // WVW = -d W, WWV = u w^T - d W, VWW = -w u^T - d W and WW = w w^T - t^2 I.
+  const double d = w.dot(v);
+  const Eigen::Vector3d u = w.cross(v);
+  Eigen::Matrix3d WW = w * w.transpose();
+  WW.diagonal().array() -= t2;
+  Eigen::Matrix3d sym = v * w.transpose() + w * v.transpose();
+  sym.diagonal().array() -= 2.0 * d;
+  return 0.5 * V + c1 * (sym - d * W) + c2 * (u * w.transpose() - w * u.transpose() + d * W) -
+         (2.0 * c3 * d) * WW;
 }
 }  // namespace
 

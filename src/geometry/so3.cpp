@@ -11,6 +11,13 @@ namespace {
 // double precision there (next term ~ theta^4 / 5040).
 constexpr double kSmallAngle = 1e-4;
 
+// [w]x^2 = w w^T - |w|^2 I: the square of a skew matrix without a 3x3 product.
+Eigen::Matrix3d hat_squared(const Eigen::Vector3d& w, double norm2) {
+  Eigen::Matrix3d W2 = w * w.transpose();
+  W2.diagonal().array() -= norm2;
+  return W2;
+}
+
 Eigen::Quaterniond canonical(const Eigen::Quaterniond& q) {
   Eigen::Quaterniond out = q.normalized();
   if (out.w() < 0) out.coeffs() = -out.coeffs();
@@ -85,7 +92,34 @@ Eigen::Matrix3d SO3::left_jacobian(const Tangent& w) {
     a = 0.5 * sinc_half * sinc_half;
     b = (theta - std::sin(theta)) / (theta2 * theta);
   }
-  return Eigen::Matrix3d::Identity() + a * W + b * W * W;
+  return Eigen::Matrix3d::Identity() + a * W + b * hat_squared(w, theta2);
+}
+
+So3ExpAndJacobianProduct SO3::exp_and_left_jacobian_times(const Tangent& w,
+                                                          const Eigen::Vector3d& v) {
+  // exp() and left_jacobian() with their shared half-angle terms: q = (cos(t/2), sin(t/2) w / t),
+  // a = (1 - cos t) / t^2 = sinc(t/2)^2 / 2, b = (t - sin t) / t^3 with sin t = 2 sin(t/2)
+  // cos(t/2); J_l v = v + a w x v + b w x (w x v).
+  const double theta2 = w.squaredNorm();
+  const double theta = std::sqrt(theta2);
+  double qw = 0.0, k = 0.0, a = 0.0, b = 0.0;
+  if (theta < kSmallAngle) {
+    qw = 1.0 - theta2 / 8.0;
+    k = 0.5 - theta2 / 48.0;
+    a = 0.5 - theta2 / 24.0;
+    b = 1.0 / 6.0 - theta2 / 120.0;
+  } else {
+    const double half = 0.5 * theta;
+    const double s = std::sin(half), c = std::cos(half);
+    qw = c;
+    k = s / theta;
+    const double sinc_half = s / half;
+    a = 0.5 * sinc_half * sinc_half;
+    b = (theta - 2.0 * s * c) / (theta2 * theta);
+  }
+  const Eigen::Vector3d wxv = w.cross(v);
+  return {SO3(Eigen::Quaterniond(qw, k * w.x(), k * w.y(), k * w.z())),
+          v + a * wxv + b * w.cross(wxv)};
 }
 
 Eigen::Matrix3d SO3::left_jacobian_inverse(const Tangent& w) {
@@ -102,7 +136,7 @@ Eigen::Matrix3d SO3::left_jacobian_inverse(const Tangent& w) {
     const double half = 0.5 * theta;
     c = (1.0 - half * std::cos(half) / std::sin(half)) / theta2;
   }
-  return Eigen::Matrix3d::Identity() - 0.5 * W + c * W * W;
+  return Eigen::Matrix3d::Identity() - 0.5 * W + c * hat_squared(w, theta2);
 }
 
 }  // namespace kestrel

@@ -240,6 +240,21 @@ TEST_P(So3ExpRanges, LeftJacobianMatchesItsSeries) {
   }
 }
 
+TEST_P(So3ExpRanges, ExpAndJacobianProductEqualExpAndTheJacobianTimesV) {
+  // The shared-sine form SE3::exp uses: the same rotation as exp() and the same J_l v as the
+  // series, to a few ulps at every angle.
+  GeometrySampler rng(test::seed_for("exp_jv", GetParam()));
+  for (int i = 0; i < GetParam().samples; ++i) {
+    const Eigen::Vector3d w = rng.rotation_vector(GetParam());
+    const Eigen::Vector3d v = rng.vector(2.0);
+    const So3ExpAndJacobianProduct e = SO3::exp_and_left_jacobian_times(w, v);
+    ASSERT_TRUE(near(e.rotation.matrix(), SO3::exp(w).matrix(), kVsSeries)) << "sample " << i;
+    ASSERT_TRUE(
+        near(e.jacobian_times_v, Eigen::Vector3d(series_left_jacobian(w) * v), kVsSeries * 2.0))
+        << "sample " << i << " w " << w.transpose();
+  }
+}
+
 TEST_P(So3LogRanges, JacobianInversesMatchTheSeriesAndInvert) {
   GeometrySampler rng(test::seed_for("jl_inv", GetParam()));
   const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();

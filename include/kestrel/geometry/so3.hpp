@@ -7,6 +7,8 @@
 
 namespace kestrel {
 
+struct So3ExpAndJacobianProduct;
+
 /// A 3-D rotation. Value type; always holds a unit quaternion with non-negative w.
 class SO3 {
  public:
@@ -42,6 +44,10 @@ class SO3 {
   /// J_l = I + (1-cos t)/t^2 [w]x + (t - sin t)/t^3 [w]x^2 (the README's erratum of eq. 3.14).
   static Eigen::Matrix3d left_jacobian(const Tangent& w);
   static Eigen::Matrix3d left_jacobian_inverse(const Tangent& w);
+  /// exp(w) and J_l(w) v together (SE(3)'s exponential: its rotation and translation), from one
+  /// sine and cosine of the half angle, without forming J_l.
+  static So3ExpAndJacobianProduct exp_and_left_jacobian_times(const Tangent& w,
+                                                              const Eigen::Vector3d& v);
   /// Right Jacobian J_r(w) = J_l(-w): exp(w + d) ~= exp(w) * exp(J_r(w) d).
   static Eigen::Matrix3d right_jacobian(const Tangent& w) { return left_jacobian(-w); }
   static Eigen::Matrix3d right_jacobian_inverse(const Tangent& w) {
@@ -50,6 +56,12 @@ class SO3 {
 
  private:
   Eigen::Quaterniond q_{Eigen::Quaterniond::Identity()};
+};
+
+/// SO3::exp_and_left_jacobian_times(w, v): exp(w) and J_l(w) v.
+struct So3ExpAndJacobianProduct {
+  SO3 rotation;
+  Eigen::Vector3d jacobian_times_v;
 };
 
 }  // namespace kestrel
