@@ -6,7 +6,7 @@
 #   scripts/check_arm64.sh [--quick | --full] [--jobs N]
 #
 #   --quick  the SIMD kernel tests only (test_odometry_kernels, test_image_kernels,
-#            test_sensor_kernels): what CI runs
+#            test_sensor_kernels, test_fusion_kernels): what CI runs
 #   --full   (default) the kernel, image, odometry (RGB-D and stereo), sensor (stereo matching,
 #            front end) and fusion tests
 #
@@ -224,12 +224,13 @@ fi
 # ---------------------------------------------------------------------------------------------
 # What each set builds and runs (CTest labels: one per test executable, tests/CMakeLists.txt).
 if [ "$mode" = quick ]; then
-  targets=(test_odometry_kernels test_image_kernels test_sensor_kernels)
-  labels='^(odometry|image|sensor)_kernels$'
+  targets=(test_odometry_kernels test_image_kernels test_sensor_kernels test_fusion_kernels)
+  labels='^(odometry|image|sensor|fusion)_kernels$'
 else
-  targets=(test_odometry_kernels test_image_kernels test_sensor_kernels test_image test_odometry
+  targets=(test_odometry_kernels test_image_kernels test_sensor_kernels test_fusion_kernels
+           test_image test_odometry
            test_sensor test_fusion)
-  labels='^(odometry_kernels|image_kernels|sensor_kernels|image|odometry|sensor|fusion)$'
+  labels='^(odometry_kernels|image_kernels|sensor_kernels|fusion_kernels|image|odometry|sensor|fusion)$'
 fi
 # Tests that run the arm64 `kestrel` binary through /bin/sh: the host kernel can start it only
 # when binfmt_misc hands aarch64 ELF files to qemu (qemu-user-static registers that on a machine

@@ -2,10 +2,12 @@
 #include "kestrel/fusion/stochastic_cloning_ekf.hpp"
 
 #include <Eigen/Cholesky>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
+#include "kestrel/fusion/covariance_kernels.hpp"
 #include "kestrel/geometry/so3.hpp"
 
 namespace kestrel::fusion {
@@ -167,15 +169,19 @@ Matrix15d StochasticCloningEkf::transition_first_estimates(const NominalState& x
   return F;
 }
 
-Matrix15d StochasticCloningEkf::process_noise(const ImuNoiseDensities& n, double dt) {
+Vector15d StochasticCloningEkf::process_noise_diagonal(const ImuNoiseDensities& n, double dt) {
   // dQ = dt * cQ (thesis eq. 4.5) mapped by G: dtheta <- -n_g, dv <- -R n_a (isotropic,
-  // so R drops out), db_g <- n_bg, db_a <- n_ba.
-  Matrix15d Q = Matrix15d::Zero();
-  Q.block<3, 3>(idx::kTheta, idx::kTheta).diagonal().setConstant(n.gyro_noise * n.gyro_noise * dt);
-  Q.block<3, 3>(idx::kV, idx::kV).diagonal().setConstant(n.accel_noise * n.accel_noise * dt);
-  Q.block<3, 3>(idx::kBg, idx::kBg).diagonal().setConstant(n.gyro_walk * n.gyro_walk * dt);
-  Q.block<3, 3>(idx::kBa, idx::kBa).diagonal().setConstant(n.accel_walk * n.accel_walk * dt);
-  return Q;
+  // so R drops out), db_g <- n_bg, db_a <- n_ba; diagonal.
+  Vector15d q = Vector15d::Zero();
+  q.segment<3>(idx::kTheta).setConstant(n.gyro_noise * n.gyro_noise * dt);
+  q.segment<3>(idx::kV).setConstant(n.accel_noise * n.accel_noise * dt);
+  q.segment<3>(idx::kBg).setConstant(n.gyro_walk * n.gyro_walk * dt);
+  q.segment<3>(idx::kBa).setConstant(n.accel_walk * n.accel_walk * dt);
+  return q;
+}
+
+Matrix15d StochasticCloningEkf::process_noise(const ImuNoiseDensities& n, double dt) {
+  return process_noise_diagonal(n, dt).asDiagonal();
 }
 
 void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
@@ -193,18 +199,104 @@ void StochasticCloningEkf::propagate(const ImuReading& m, double dt) {
     set_first_estimate_columns(F, *before_update_, x_, dt, g_world_);
   }
   before_update_.reset();
+  propagate_covariance(P_, F, process_noise_diagonal(noise_, dt));
+}
+
+namespace {
+
+// Rows of the current state over N columns, row-major: each row contiguous, so that an output
+// row of the products below is a sum of scaled input rows (kernels::combine_rows).
+template <int N>
+using CoreRows = Eigen::Matrix<double, idx::kCore, N, Eigen::RowMajor>;
+
+// F X for a transition with the block structure of transition(): the rows of the biases are
+// X's own; a row of p, theta or v takes X's rows at the columns where F can be nonzero (its
+// identity, the dt I of p over v, and the attitude and bias blocks): 81 N multiply-adds where
+// the dense product takes 225 N.
+template <int N>
+void transition_times(const Matrix15d& F, const CoreRows<N>& X, CoreRows<N>& Y) {
+  std::array<const double*, 11> rows{};
+  std::array<double, 11> coeffs{};
+  for (int r = idx::kP; r < idx::kV + 3; ++r) {
+    const int block = r - r % 3;  // kP, kTheta or kV
+    int terms = 0;
+    const auto add = [&](int col) {
+      rows[terms] = X.row(col).data();
+      coeffs[terms] = F(r, col);
+      ++terms;
+    };
+    if (block != idx::kTheta) add(r);                  // the identity of p and v
+    if (block == idx::kP) add(r - idx::kP + idx::kV);  // dt I
+    for (int k = 0; k < 3; ++k) add(idx::kTheta + k);
+    for (int k = 0; k < 3; ++k) add(idx::kBg + k);
+    if (block != idx::kTheta) {
+      for (int k = 0; k < 3; ++k) add(idx::kBa + k);
+    }
+    kernels::combine_rows(rows.data(), coeffs.data(), terms, Y.row(r).data(), N);
+  }
+  Y.template bottomRows<6>() = X.template bottomRows<6>();  // the biases' rows
+}
+
+}  // namespace
+
+void StochasticCloningEkf::propagate_covariance(MatrixXs& P, const Matrix15d& F,
+                                                const Vector15d& q_diagonal) {
   // P <- F P F^T + dQ on the current block; the clone and time-offset blocks are unchanged
   // (t_d is a constant) and the cross block becomes F P_xc (the growing correlation the thesis
-  // describes after eq. 4.6).
-  auto Pcc = P_.topLeftCorner<idx::kCore, idx::kCore>();
-  const Matrix15d FP = F * Pcc;
-  Matrix15d Pn = FP * F.transpose();
-  Pn.diagonal() += process_noise(noise_, dt).diagonal();
-  Pcc = 0.5 * (Pn + Pn.transpose());
+  // describes after eq. 4.6). One product gives [F P_cc, F P_xc] from P's top rows, and
+  // F P_cc F^T = F (F P_cc)^T (P_cc symmetric).
   constexpr int kRest = idx::kDim - idx::kCore;
-  const Eigen::Matrix<double, idx::kCore, kRest> cross = F * P_.topRightCorner<idx::kCore, kRest>();
-  P_.topRightCorner<idx::kCore, kRest>() = cross;
-  P_.bottomLeftCorner<kRest, idx::kCore>() = cross.transpose();
+  const CoreRows<idx::kDim> top = P.topRows<idx::kCore>();
+  CoreRows<idx::kDim> FP;
+  transition_times<idx::kDim>(F, top, FP);
+  const CoreRows<idx::kCore> FPt = FP.leftCols<idx::kCore>().transpose();
+  CoreRows<idx::kCore> FPFt;
+  transition_times<idx::kCore>(F, FPt, FPFt);
+  auto core = P.topLeftCorner<idx::kCore, idx::kCore>();
+  core = 0.5 * (FPFt + FPFt.transpose());
+  core.diagonal() += q_diagonal;
+  P.topRightCorner<idx::kCore, kRest>() = FP.rightCols<kRest>();
+  P.bottomLeftCorner<kRest, idx::kCore>() = FP.rightCols<kRest>().transpose();
+}
+
+Eigen::Matrix<double, idx::kDim, 6> StochasticCloningEkf::covariance_times_transpose(
+    const MatrixXs& P, const Matrix6xs& H) {
+  // Column k of P H^T combines P's columns (contiguous) by row k of H.
+  std::array<const double*, idx::kDim> columns{};
+  for (int c = 0; c < idx::kDim; ++c) columns[c] = P.col(c).data();
+  std::array<double, idx::kDim> coeffs{};
+  Eigen::Matrix<double, idx::kDim, 6> PHt;
+  for (int k = 0; k < 6; ++k) {
+    for (int c = 0; c < idx::kDim; ++c) coeffs[c] = H(k, c);
+    kernels::combine_rows(columns.data(), coeffs.data(), idx::kDim, PHt.col(k).data(), idx::kDim);
+  }
+  return PHt;
+}
+
+void StochasticCloningEkf::joseph_update(MatrixXs& P, const Eigen::Matrix<double, idx::kDim, 6>& K,
+                                         const Eigen::Matrix<double, idx::kDim, 6>& PHt,
+                                         const Matrix6d& S) {
+  // (I - K H) P (I - K H)^T + K R K^T expands, with H P = (P H^T)^T and H P H^T + R = S, to
+  // P - K PHt^T - PHt K^T + K S K^T: the same matrix for any K (an error in K still enters at
+  // second order only), in products of 22x6x22 and 22x6x6 instead of two of 22x22x22.
+  // Row i of A = (K S - PHt) K^T - K PHt^T combines the 6 columns of K and the 6 of PHt (each
+  // contiguous: column-major), 12 terms per row.
+  const Eigen::Matrix<double, idx::kDim, 6> KS_PHt = K * S - PHt;
+  Eigen::Matrix<double, idx::kDim, idx::kDim, Eigen::RowMajor> A;
+  std::array<const double*, 12> rows{};
+  for (int t = 0; t < 6; ++t) {
+    rows[t] = K.col(t).data();
+    rows[6 + t] = PHt.col(t).data();
+  }
+  std::array<double, 12> coeffs{};
+  for (int i = 0; i < idx::kDim; ++i) {
+    for (int t = 0; t < 6; ++t) {
+      coeffs[t] = KS_PHt(i, t);
+      coeffs[6 + t] = -K(i, t);
+    }
+    kernels::combine_rows(rows.data(), coeffs.data(), 12, A.row(i).data(), idx::kDim);
+  }
+  P += 0.5 * (A + A.transpose());
 }
 
 namespace {
@@ -304,7 +396,7 @@ UpdateResult StochasticCloningEkf::update(const SE3& measured, const Matrix6d& c
     x_lin.q_world_clone = q_clone_first_;
   }
   const Matrix6xs H = measurement_jacobian(x_lin);
-  const Eigen::Matrix<double, idx::kDim, 6> PHt = P_ * H.transpose();
+  const Eigen::Matrix<double, idx::kDim, 6> PHt = covariance_times_transpose(P_, H);
   Matrix6d S = H * PHt + Rm;
   S = 0.5 * (S + S.transpose());
   const Eigen::LLT<Matrix6d> llt(S);
@@ -322,10 +414,7 @@ UpdateResult StochasticCloningEkf::update(const SE3& measured, const Matrix6d& c
   const Eigen::Matrix<double, idx::kDim, 6> K = llt.solve(PHt.transpose()).transpose();
   const VectorXs dx = K * result.residual;
   // Joseph form, thesis eq. 4.8: P = (I - K H) P (I - K H)^T + K Sigma K^T.
-  MatrixXs IKH = -K * H;
-  IKH.diagonal().array() += 1.0;
-  MatrixXs Pn = IKH * P_ * IKH.transpose() + K * Rm * K.transpose();
-  P_ = 0.5 * (Pn + Pn.transpose());
+  joseph_update(P_, K, PHt, S);
   if (!before_update_) before_update_ = x_;  // the first of updates without a step between
   x_ = x_.boxplus(dx);
   return result;

@@ -161,6 +161,21 @@ class StochasticCloningEkf {
                                               double dt_s, const Eigen::Vector3d& g_world);
   /// Discrete process noise dQ = G (dt cQ) G^T over the current state.
   static Matrix15d process_noise(const ImuNoiseDensities& noise, double dt_s);
+  /// Its diagonal (dQ is diagonal: isotropic densities).
+  static Vector15d process_noise_diagonal(const ImuNoiseDensities& noise, double dt_s);
+  /// The covariance step in place (thesis eq. 4.6): P <- F P F^T + diag(q) on the current
+  /// block, F P_xc on the cross blocks, the clone and time-offset blocks unchanged. F must
+  /// have the block structure of transition() (identity but for the attitude and bias columns
+  /// of p, theta, v and dt I for p over v); the product skips its zero blocks.
+  static void propagate_covariance(MatrixXs& P, const Matrix15d& F, const Vector15d& q_diagonal);
+  /// P H^T for a measurement Jacobian H (the update's gain and innovation covariance).
+  static Eigen::Matrix<double, idx::kDim, 6> covariance_times_transpose(const MatrixXs& P,
+                                                                        const Matrix6xs& H);
+  /// The Joseph-form update in place (thesis eq. 4.8) P <- (I - K H) P (I - K H)^T + K R K^T, given
+  /// PH^T = P H^T and S = H P H^T + R, in its expanded form
+  /// P - K (PH^T)^T - PH^T K^T + (K S) K^T, algebraically equal for any gain K.
+  static void joseph_update(MatrixXs& P, const Eigen::Matrix<double, idx::kDim, 6>& K,
+                            const Eigen::Matrix<double, idx::kDim, 6>& PHt, const Matrix6d& S);
   /// h(x) = T_clone_body = T_world_clone^-1 T_world_body (thesis eq. 4.7), with both poses
   /// moved to the frames' IMU times by the time offset (first order: p + v t_d, R exp(w t_d)).
   static SE3 predict_relative_pose(const NominalState& x);
