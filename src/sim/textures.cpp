@@ -193,25 +193,31 @@ inline Tap wrap_texel(double x, int n, bool power_of_two) {
   return {i, i + 1 == n ? 0 : i + 1, frac};
 }
 
-}  // namespace
-
-// The arithmetic is that of three scalar channels (the same operations in the same order, so
-// the same colours), done on the three at once.
-ColorBgr Texture::sample_level(int l, double s_m, double t_m) const {
-  const LevelInfo& info = info_[static_cast<std::size_t>(l)];
+/// Bilinear lookup on one level (a Texture::LevelInfo, whose type is private to the class).
+/// The arithmetic is that of three scalar channels (the same operations in the same order, so
+/// the same colours), done on the three at once.
+template <typename Level>
+inline Lanes bilinear(const Level& level, double s_m, double t_m) {
   // Texel centres sit at (i + 0.5) * texel; the texture repeats (wraps) in both directions.
-  const Tap x = wrap_texel(s_m * info.texels_per_m_s - 0.5, info.width, info.power_of_two);
-  const Tap y = wrap_texel(t_m * info.texels_per_m_t - 0.5, info.height, info.power_of_two);
-  const float* r0 = info.data + static_cast<std::size_t>(y.i0) * info.row_floats;
-  const float* r1 = info.data + static_cast<std::size_t>(y.i1) * info.row_floats;
+  const Tap x = wrap_texel(s_m * level.texels_per_m_s - 0.5, level.width, level.power_of_two);
+  const Tap y = wrap_texel(t_m * level.texels_per_m_t - 0.5, level.height, level.power_of_two);
+  const float* r0 = level.data + static_cast<std::size_t>(y.i0) * level.row_floats;
+  const float* r1 = level.data + static_cast<std::size_t>(y.i1) * level.row_floats;
   const auto c0 = 3 * static_cast<std::size_t>(x.i0);
   const auto c1 = 3 * static_cast<std::size_t>(x.i1);
   const Lanes a = load_texel(r0 + c0), b = load_texel(r0 + c1);
   const Lanes c = load_texel(r1 + c0), d = load_texel(r1 + c1);
   const Lanes top = a + x.frac * (b - a);
   const Lanes bottom = c + x.frac * (d - c);
-  const Lanes color = top + y.frac * (bottom - top);
-  return {color[0], color[1], color[2]};
+  return top + y.frac * (bottom - top);
+}
+
+inline ColorBgr bgr(const Lanes& v) { return {v[0], v[1], v[2]}; }
+
+}  // namespace
+
+ColorBgr Texture::sample_level(int l, double s_m, double t_m) const {
+  return bgr(bilinear(info_[static_cast<std::size_t>(l)], s_m, t_m));
 }
 
 ColorBgr Texture::sample(double s_m, double t_m) const { return sample_level(0, s_m, t_m); }
@@ -221,16 +227,17 @@ ColorBgr Texture::sample(double s_m, double t_m, double footprint_m) const {
   return sample_lod(s_m, t_m, static_cast<float>(std::log2(footprint_m / texel_size_m_)));
 }
 
+// Both levels' lookups inline, blended in the four lanes: this is the renderer's lookup.
 ColorBgr Texture::sample_lod(double s_m, double t_m, float lod) const {
-  if (!(lod > 0.0F)) return sample_level(0, s_m, t_m);
+  if (!(lod > 0.0F)) return bgr(bilinear(info_.front(), s_m, t_m));
   const int top = levels() - 1;
   if (lod >= static_cast<float>(top)) return levels_.back().at<cv::Vec3f>(0, 0);
   const int l = static_cast<int>(lod);
   const float f = lod - static_cast<float>(l);
-  const ColorBgr fine = sample_level(l, s_m, t_m);
-  if (f == 0.0F) return fine;
-  const ColorBgr coarse = sample_level(l + 1, s_m, t_m);
-  return fine + f * (coarse - fine);
+  const Lanes fine = bilinear(info_[static_cast<std::size_t>(l)], s_m, t_m);
+  if (f == 0.0F) return bgr(fine);
+  const Lanes coarse = bilinear(info_[static_cast<std::size_t>(l) + 1], s_m, t_m);
+  return bgr(fine + f * (coarse - fine));
 }
 
 ColorBgr Texture::mean() const {
