@@ -79,9 +79,11 @@ class ProjectorLight final : public LightSource {
 
   SE3 T_world_projector_;
   SE3 T_projector_world_;
+  Eigen::Matrix3d R_projector_world_;  // T_projector_world_'s rotation, for each lit point
   ProjectorOptions options_;
   PinholeCamera camera_;
   cv::Mat pattern_;
+  cv::Mat pattern16_;  // pattern_ as CV_16UC3 (x 65535) for the lookup, a spare row behind
 };
 
 enum class ProjectorMode {
