@@ -39,6 +39,12 @@ int exposure_taps(const ExposureOptions& o, double max_flow_px_s) {
 }
 
 void expose(const cv::Mat& sharp, const cv::Mat& flow, const ExposureOptions& o, cv::Mat& out) {
+  ExposureWorkspace workspace;
+  expose(sharp, flow, o, out, workspace);
+}
+
+void expose(const cv::Mat& sharp, const cv::Mat& flow, const ExposureOptions& o, cv::Mat& out,
+            ExposureWorkspace& ws) {
   if (sharp.channels() != 1 || (sharp.depth() != CV_8U && sharp.depth() != CV_32F)) {
     throw InputError("expose: the image must be one channel, CV_8U or CV_32F");
   }
@@ -49,17 +55,19 @@ void expose(const cv::Mat& sharp, const cv::Mat& flow, const ExposureOptions& o,
     sharp.copyTo(out);
     return;
   }
-  double max_flow = 0.0;
+  // The largest squared speed, one square root at the end (not one per pixel).
+  float max_flow2 = 0.0F;
   for (int r = 0; r < flow.rows; ++r) {
     const auto* f = flow.ptr<cv::Vec2f>(r);
-    for (int c = 0; c < flow.cols; ++c)
-      max_flow = std::max(max_flow, static_cast<double>(cv::norm(f[c])));
+    for (int c = 0; c < flow.cols; ++c) {
+      max_flow2 = std::max(max_flow2, f[c][0] * f[c][0] + f[c][1] * f[c][1]);
+    }
   }
-  const int taps = exposure_taps(o, max_flow);
-  cv::Mat src;
-  sharp.convertTo(src, CV_32F);
-  cv::Mat sum = cv::Mat::zeros(sharp.size(), CV_32F);
-  cv::Mat map_x(sharp.size(), CV_32F), map_y(sharp.size(), CV_32F), sample;
+  const int taps = exposure_taps(o, std::sqrt(static_cast<double>(max_flow2)));
+  sharp.convertTo(ws.source, CV_32F);
+  ws.sum.create(sharp.size(), CV_32F);
+  ws.map_x.create(sharp.size(), CV_32F);
+  ws.map_y.create(sharp.size(), CV_32F);
   const double row_time = o.readout_s / sharp.rows;
   const double middle = 0.5 * (sharp.rows - 1);
   for (int k = 0; k < taps; ++k) {
@@ -68,17 +76,19 @@ void expose(const cv::Mat& sharp, const cv::Mat& flow, const ExposureOptions& o,
     for (int r = 0; r < sharp.rows; ++r) {
       const double dt = (r - middle) * row_time + tau;
       const auto* f = flow.ptr<cv::Vec2f>(r);
-      float* mx = map_x.ptr<float>(r);
-      float* my = map_y.ptr<float>(r);
+      float* mx = ws.map_x.ptr<float>(r);
+      float* my = ws.map_y.ptr<float>(r);
       for (int c = 0; c < sharp.cols; ++c) {
         mx[c] = static_cast<float>(c - static_cast<double>(f[c][0]) * dt);
         my[c] = static_cast<float>(r - static_cast<double>(f[c][1]) * dt);
       }
     }
-    cv::remap(src, sample, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    sum += sample;
+    // The first tap's samples are the sum so far: no zeroing pass.
+    cv::remap(ws.source, k == 0 ? ws.sum : ws.sample, ws.map_x, ws.map_y, cv::INTER_LINEAR,
+              cv::BORDER_REPLICATE);
+    if (k > 0) ws.sum += ws.sample;
   }
-  sum.convertTo(out, sharp.depth(), 1.0 / taps);
+  ws.sum.convertTo(out, sharp.depth(), 1.0 / taps);
 }
 
 }  // namespace kestrel::sim
