@@ -3,6 +3,7 @@
 #include "kestrel/sim/projector_light.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -110,31 +111,61 @@ ColorBgr ProjectorLight::illuminate(const SurfacePoint& point,
   return irradiance(point, context);
 }
 
-// The renderer hands a row of points at a time: one call, no per-point dispatch.
+// The renderer hands a row of points at a time: one call, no per-point dispatch. The points go
+// in chunks: all projections first, then the pattern lookups back to back, then the rest. The
+// lookups miss the caches; back to back their misses overlap, where between each point's
+// arithmetic they waited one after the other.
 void ProjectorLight::accumulate(std::span<const SurfacePoint> points,
                                 std::span<ColorBgr> irradiance_sum,
                                 const ShadingContext& context) const {
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    irradiance_sum[i] += irradiance(points[i], context);
+  constexpr std::size_t kChunk = 32;
+  std::array<double, kChunk> us{}, vs{};
+  std::array<std::size_t, kChunk> index{};
+  std::array<cv::Vec3f, kChunk> samples;
+  for (std::size_t first = 0; first < points.size(); first += kChunk) {
+    const std::size_t n = std::min(kChunk, points.size() - first);
+    std::size_t lit = 0;  // points that project into the image
+    for (std::size_t i = first; i < first + n; ++i) {
+      if (project(points[i].p_world, us[lit], vs[lit])) index[lit++] = i;
+    }
+    for (std::size_t j = 0; j < lit; ++j) samples[j] = pattern_at(us[j], vs[j]);
+    for (std::size_t j = 0; j < lit; ++j) {
+      if (is_dark(samples[j])) continue;
+      const std::size_t i = index[j];
+      irradiance_sum[i] += light(points[i], samples[j], context);
+    }
   }
+}
+
+bool ProjectorLight::project(const Eigen::Vector3d& p_world, double& u, double& v) const {
+  const Eigen::Vector3d p = R_projector_world_ * p_world + T_projector_world_.translation();
+  if (!(p.z() > 1e-6)) return false;  // behind the projector
+  // One division for the projection and one for the distance: this runs for every lit pixel.
+  const double inv_z = 1.0 / p.z();
+  u = camera_.fx() * p.x() * inv_z + camera_.cx();
+  v = camera_.fy() * p.y() * inv_z + camera_.cy();
+  // Outside the image [-0.5, size - 0.5]: unlit.
+  return u >= -0.5 && v >= -0.5 && u <= options_.width - 0.5 && v <= options_.height - 0.5;
+}
+
+bool ProjectorLight::is_dark(const cv::Vec3f& sample) {
+  return sample[0] <= 0.0F && sample[1] <= 0.0F && sample[2] <= 0.0F;
 }
 
 ColorBgr ProjectorLight::irradiance(const SurfacePoint& point,
                                     const ShadingContext& context) const {
   const ColorBgr dark(0.0F, 0.0F, 0.0F);
-  const Eigen::Vector3d p = R_projector_world_ * point.p_world + T_projector_world_.translation();
-  if (!(p.z() > 1e-6)) return dark;  // behind the projector
-  // One division for the projection and one for the distance: this runs for every lit pixel.
-  const double inv_z = 1.0 / p.z();
-  const double u = camera_.fx() * p.x() * inv_z + camera_.cx();
-  const double v = camera_.fy() * p.y() * inv_z + camera_.cy();
-  // Outside the image [-0.5, size - 0.5]: unlit.
-  if (!(u >= -0.5 && v >= -0.5 && u <= options_.width - 0.5 && v <= options_.height - 0.5)) {
-    return dark;
-  }
+  double u = 0.0, v = 0.0;
+  if (!project(point.p_world, u, v)) return dark;
   // The pattern first: most points fall between its lines, where nothing else is needed.
   const cv::Vec3f sample = pattern_at(u, v);
-  if (sample[0] <= 0.0F && sample[1] <= 0.0F && sample[2] <= 0.0F) return dark;
+  if (is_dark(sample)) return dark;
+  return light(point, sample, context);
+}
+
+ColorBgr ProjectorLight::light(const SurfacePoint& point, const cv::Vec3f& sample,
+                               const ShadingContext& context) const {
+  const ColorBgr dark(0.0F, 0.0F, 0.0F);
   const Eigen::Vector3d& c_world = T_world_projector_.translation();
   const Eigen::Vector3d to_projector = c_world - point.p_world;
   const double inv_d = 1.0 / to_projector.norm();
