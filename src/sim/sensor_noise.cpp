@@ -89,9 +89,9 @@ class Ziggurat {
 
 /// Standard normal deviates for image noise, four per 64-bit draw: each 16-bit field of one
 /// xoshiro256++ output picks one of 2^16 equally likely values, the normal quantiles at the
-/// stratum midpoints (i + 1/2) / 2^16. A frame pair holds about 800k noisy values, and the
-/// ziggurat's ~60 instructions per value made the noise an eighth of a realistic flight's
-/// time; a table look-up is a shift, a mask and a load. The price is the far tails: the
+/// stratum midpoints (i + 1/2) / 2^16. A realistic flight's frame holds about 800k noisy
+/// values, and at the ziggurat's ~60 instructions per value the noise was one of the flight's
+/// largest costs; a table look-up is a shift, a mask and a load. The price is the far tails: the
 /// largest value is 4.32 sigma (the normal puts 1.5e-5 of its mass beyond), and the values
 /// are scaled to unit variance so that intensity_sigma stays the exact standard deviation.
 /// Mean, sigma, tail fractions and kurtosis are tested (test_sensor_noise.cpp).
