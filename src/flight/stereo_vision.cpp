@@ -148,17 +148,17 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const Bo
     const auto [v_right, w_right] = camera_twist(*twist, T_world_body, T_body_right);
     const PinholeCamera left = rig_.left();
     sim::image_flow(left, frame_.left.depth_m, v_left, w_left, flow_);
-    sim::expose(left_gray_, flow_, exposure_, exposed_);
+    sim::expose(left_gray_, flow_, exposure_, exposed_, expose_workspace_);
     exposed_.copyTo(left_gray_);
     if (shared) {
       tracking_gray_ = left_gray_;
     } else {
       // The tracking view is the left camera: same flow (its depth is the same surface).
-      sim::expose(tracking_gray_, flow_, exposure_, exposed_);
+      sim::expose(tracking_gray_, flow_, exposure_, exposed_, expose_workspace_);
       exposed_.copyTo(tracking_gray_);
     }
     sim::image_flow(left, frame_.right.depth_m, v_right, w_right, flow_);
-    sim::expose(right_gray_, flow_, exposure_, exposed_);
+    sim::expose(right_gray_, flow_, exposure_, exposed_, expose_workspace_);
     exposed_.copyTo(right_gray_);
     out.expose_ms = ms_since(expose_start);
   }

@@ -2,6 +2,7 @@
 // rates, range and incidence limits; options load and save as YAML.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 
@@ -115,6 +116,39 @@ TEST(SensorNoise, IntensityNoiseHasItsSigma) {
     EXPECT_NEAR(sd[c], 3.0, 0.06) << c;
     EXPECT_NEAR(mean[c], 0.0, 0.1) << c;
   }
+}
+
+TEST(SensorNoise, IntensityNoiseIsGaussianToItsTails) {
+  // 3 million deviates (far from the clamps at 0 and 1): mean, sigma, the two-sided tail
+  // fractions and the kurtosis of a normal, each within 4 standard errors, and values beyond
+  // 4 sigma (a normal gives ~190 of 3 million there).
+  SensorNoiseOptions o;
+  o.intensity_sigma = 2.0;
+  SensorNoise noise(o, 11);
+  cv::Mat color(1000, 1000, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
+  noise.apply_intensity(color);
+  const double sigma = 2.0 / 255.0;
+  double s1 = 0.0, s2 = 0.0, s4 = 0.0, largest = 0.0;
+  double beyond2 = 0.0, beyond3 = 0.0;
+  const cv::Mat flat_view = color.reshape(1, 1);
+  const auto n = static_cast<double>(flat_view.total());
+  for (int i = 0; i < flat_view.cols; ++i) {
+    const double z = (static_cast<double>(flat_view.at<float>(0, i)) - 0.5) / sigma;
+    s1 += z;
+    s2 += z * z;
+    s4 += z * z * z * z;
+    largest = std::max(largest, std::abs(z));
+    beyond2 += std::abs(z) > 2.0 ? 1.0 : 0.0;
+    beyond3 += std::abs(z) > 3.0 ? 1.0 : 0.0;
+  }
+  const double mean = s1 / n;
+  const double variance = s2 / n - mean * mean;
+  EXPECT_NEAR(mean, 0.0, 4.0 / std::sqrt(n));
+  EXPECT_NEAR(std::sqrt(variance), 1.0, 4.0 * std::sqrt(0.5 / n));  // s.e. of sd: 1/sqrt(2n)
+  EXPECT_NEAR(beyond2 / n, 0.0455, 4.0 * std::sqrt(0.0455 * 0.9545 / n));
+  EXPECT_NEAR(beyond3 / n, 0.0027, 4.0 * std::sqrt(0.0027 * 0.9973 / n));
+  EXPECT_NEAR(s4 / n / (variance * variance), 3.0, 4.0 * std::sqrt(24.0 / n));  // kurtosis
+  EXPECT_GT(largest, 4.0);
 }
 
 TEST(SensorNoise, RenderedGrazingFloorLosesDepthWithTheKinectModel) {

@@ -124,6 +124,7 @@ class StereoVision {
   std::optional<TimeNs> last_frame_ns_;
   sim::ExposureOptions exposure_;
   cv::Mat flow_, exposed_;
+  sim::ExposureWorkspace expose_workspace_;
 };
 
 }  // namespace kestrel::flight

@@ -32,10 +32,19 @@ struct ExposureOptions {
 void image_flow(const PinholeCamera& camera, const cv::Mat& depth_m, const Eigen::Vector3d& v_cam,
                 const Eigen::Vector3d& w_cam, cv::Mat& flow);
 
+/// Scratch images of expose(): kept by a caller that exposes every frame, so that a frame of
+/// the same size allocates nothing.
+struct ExposureWorkspace {
+  cv::Mat source, sum, map_x, map_y, sample;
+};
+
 /// The exposed image (same type as `sharp`: CV_8U or CV_32F, one channel) from the sharp one
 /// and its flow.
 void expose(const cv::Mat& sharp, const cv::Mat& flow, const ExposureOptions& options,
             cv::Mat& out);
+/// The same with the caller's scratch images.
+void expose(const cv::Mat& sharp, const cv::Mat& flow, const ExposureOptions& options, cv::Mat& out,
+            ExposureWorkspace& workspace);
 
 /// The number of samples expose() takes over one exposure for a largest flow (px/s).
 int exposure_taps(const ExposureOptions& options, double max_flow_px_s);

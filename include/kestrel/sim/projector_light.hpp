@@ -74,14 +74,24 @@ class ProjectorLight final : public LightSource {
 
  private:
   [[nodiscard]] ColorBgr irradiance(const SurfacePoint& point, const ShadingContext& context) const;
+  /// The projector pixel (u, v) of a world point; false behind the projector or outside its
+  /// image.
+  [[nodiscard]] bool project(const Eigen::Vector3d& p_world, double& u, double& v) const;
+  /// A pattern sample that lights nothing (between the pattern's lines).
+  [[nodiscard]] static bool is_dark(const cv::Vec3f& sample);
+  /// The irradiance at `point` from its pattern sample: fall-off, incidence, shadow.
+  [[nodiscard]] ColorBgr light(const SurfacePoint& point, const cv::Vec3f& sample,
+                               const ShadingContext& context) const;
   /// The blurred pattern, bilinear, at projector pixel (u, v) inside [-0.5, size - 0.5].
   [[nodiscard]] cv::Vec3f pattern_at(double u, double v) const;
 
   SE3 T_world_projector_;
   SE3 T_projector_world_;
+  Eigen::Matrix3d R_projector_world_;  // T_projector_world_'s rotation, for each lit point
   ProjectorOptions options_;
   PinholeCamera camera_;
   cv::Mat pattern_;
+  cv::Mat pattern16_;  // pattern_ as CV_16UC3 (x 65535) for the lookup, a spare row behind
 };
 
 enum class ProjectorMode {

@@ -131,7 +131,8 @@ class SensorNoise {
   /// depth_m (CV_32F, 0 = no depth) in place, from the exact depth; cos_incidence (CV_32F)
   /// holds |cos| of the angle between each pixel's ray and the surface normal.
   void apply_depth(cv::Mat& depth_m, const cv::Mat& cos_incidence);
-  /// Linear colour (CV_32FC3 in [0, 1]) in place; results are clamped to [0, 1].
+  /// Linear colour (CV_32FC3 in [0, 1]) in place; results are clamped to [0, 1]. The deviates
+  /// come from a 2^16-quantile table of the normal (exact sigma and mean, tails to 4.3 sigma).
   void apply_intensity(cv::Mat& color);
 
  private:

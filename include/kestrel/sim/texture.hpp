@@ -54,11 +54,13 @@ class Texture {
   [[nodiscard]] ColorBgr sample_level(int l, double s_m, double t_m) const;
 
   struct LevelInfo {
+    const float* data = nullptr;  // the level's texels, a spare row behind them
+    std::size_t row_floats = 3;   // floats per row
     int width = 1, height = 1;
     double texels_per_m_s = 1.0, texels_per_m_t = 1.0;
     bool power_of_two = false;  // wrap by masking
   };
-  std::vector<cv::Mat> levels_;  // CV_32FC3, continuous
+  std::vector<cv::Mat> levels_;  // CV_32FC3, continuous, each with a spare row in its buffer
   std::vector<LevelInfo> info_;
   double texel_size_m_ = 0.01;
   double period_s_m_ = 0.01;  // width * texel size
