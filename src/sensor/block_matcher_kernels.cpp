@@ -14,7 +14,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -966,33 +965,6 @@ void CensusSignatures(const std::uint8_t* const* rows, int cr, int count, std::u
 
 #endif  // HWY_TARGET == HWY_SCALAR
 
-// Plain loops, compiled here once per target so that the popcount and the vectorised updates
-// use the target's instructions also in a build without -march=native: the Hamming distances
-// first, then the column and ring updates.
-void CensusSlideRow(std::uint16_t* column_sums, std::uint8_t* ring_row,
-                    const std::uint64_t* left_row, const std::uint64_t* right_row, int cols,
-                    int lanes, int scale, int storage_order) {
-  const auto lane_stride = static_cast<std::size_t>(lanes);
-  std::array<std::uint8_t, 1024> distances{};  // lanes <= 1024 (validate)
-  for (int c = 0; c < cols; ++c) {
-    std::uint16_t* sums = column_sums + static_cast<std::size_t>(c) * lane_stride;
-    std::uint8_t* ring = ring_row + static_cast<std::size_t>(c) * lane_stride;
-    const std::uint64_t left = left_row[c];
-    for (int i = 0; i < lanes; ++i) {
-      distances[static_cast<std::size_t>(i)] =
-          static_cast<std::uint8_t>(std::popcount(left ^ right_row[c + i]));
-    }
-    for (int i0 = 0; i0 < lanes; i0 += 8) {  // the storage order keeps runs of 8 lanes
-      std::uint16_t* sum = sums + fast_lane_position(i0, storage_order);
-      for (int i = 0; i < 8; ++i) {
-        sum[i] = static_cast<std::uint16_t>(
-            sum[i] + scale * (distances[static_cast<std::size_t>(i0 + i)] - ring[i0 + i]));
-      }
-    }
-    std::memcpy(ring, distances.data(), lane_stride);
-  }
-}
-
 const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
 
 }  // namespace kestrel::sensor::kernels::HWY_NAMESPACE
@@ -1006,7 +978,6 @@ HWY_EXPORT(VectorLanes);
 HWY_EXPORT(ScanRow);
 HWY_EXPORT(AddSadRowFast);
 HWY_EXPORT(MatchRowFast);
-HWY_EXPORT(CensusSlideRow);
 HWY_EXPORT(CensusSignatures);
 HWY_EXPORT(TargetName);
 
@@ -1021,13 +992,6 @@ void add_sad_row_fast(std::uint16_t* column_sums, const std::uint8_t* left_row,
 
 void match_row_fast(const RowScan& scan, const FastRow& fast, float* out, MatchStats& stats) {
   HWY_DYNAMIC_DISPATCH(MatchRowFast)(scan, fast, out, stats);
-}
-
-void census_slide_row(std::uint16_t* column_sums, std::uint8_t* ring_row,
-                      const std::uint64_t* left_row, const std::uint64_t* right_row, int cols,
-                      int lanes, int scale, int storage_order) {
-  HWY_DYNAMIC_DISPATCH(CensusSlideRow)
-  (column_sums, ring_row, left_row, right_row, cols, lanes, scale, storage_order);
 }
 
 void census_signatures(const std::uint8_t* const* rows, int cr, int count, std::uint64_t* out) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "kestrel/sensor/block_matcher.hpp"
 
@@ -116,10 +117,20 @@ void match_row_fast(const RowScan& scan, const FastRow& fast, float* out, MatchS
 /// Census column sums slid down one row: += scale (the incoming row's Hamming distances -
 /// the outgoing row's, kept in `ring_row`, which then holds the incoming ones), the sums in
 /// the storage order fast_lane_position(., storage_order) (0: lane order). The same
-/// arithmetic on every target (a loop the compiler vectorises, with the target's popcount).
+/// arithmetic on every target (Highway's PopulationCount on uint64 lanes, uint16 updates).
+/// Its own translation unit (census_kernels.cpp), compiled for AVX-512 too (AVX3_DL).
+/// `lanes` a multiple of 8, at most 1024.
 void census_slide_row(std::uint16_t* column_sums, std::uint8_t* ring_row,
                       const std::uint64_t* left_row, const std::uint64_t* right_row, int cols,
                       int lanes, int scale, int storage_order);
+/// The scalar reference of census_slide_row: lane by lane, the same bits.
+void census_slide_row_reference(std::uint16_t* column_sums, std::uint8_t* ring_row,
+                                const std::uint64_t* left_row, const std::uint64_t* right_row,
+                                int cols, int lanes, int scale, int storage_order);
+/// The targets census_slide_row has for this CPU (AVX3_DL included), best first, and the name
+/// of the one its dispatch takes.
+std::vector<std::int64_t> census_simd_targets();
+const char* census_target_name();
 /// Census signatures (the census cost's, BlockMatcherOptions::census_window = 2 cr + 1) of
 /// `count` consecutive pixels whose windows lie inside the image: rows[k] (k = 0 .. 2 cr)
 /// points at the first pixel's column in image row y - cr + k (clamped). Bit = I(neighbour) <

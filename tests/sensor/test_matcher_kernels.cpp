@@ -286,6 +286,48 @@ TEST(BlockMatcher, CensusSignaturesGiveTheScalarReferenceOnEveryTarget) {
   });
 }
 
+// The census column slide (its own translation unit, compiled for AVX3_DL too) against its
+// scalar reference on every target it has for this CPU: random signatures, sums that wrap,
+// the fast rows' lane counts and more, every storage order and column scale.
+TEST(BlockMatcher, CensusSlideRowGivesTheScalarReferenceOnEveryTarget) {
+  const std::vector<std::int64_t> targets = kernels::census_simd_targets();
+  ASSERT_FALSE(targets.empty());
+  std::mt19937_64 rng(7);
+  constexpr int kCols = 37;
+  for (const int lanes : {32, 64, 96, 128}) {
+    for (const int order : {0, 8, 16}) {
+      for (const int scale : {1, 4, 8}) {
+        const auto n = static_cast<std::size_t>(kCols * lanes);
+        std::vector<std::uint64_t> left(kCols), right(static_cast<std::size_t>(kCols + lanes));
+        for (auto& v : left) v = rng() & (rng() % 2 == 0 ? ~0ULL : 0xFFFFFFFFFFFFULL);
+        for (auto& v : right) v = rng() % 5 == 0 ? left[rng() % kCols] : rng();
+        std::vector<std::uint16_t> sums0(n);
+        std::vector<std::uint8_t> ring0(n);
+        for (auto& v : sums0) v = static_cast<std::uint16_t>(rng());
+        for (auto& v : ring0) v = static_cast<std::uint8_t>(rng() % 65);
+        std::vector<std::uint16_t> expected_sums = sums0;
+        std::vector<std::uint8_t> expected_ring = ring0;
+        kernels::census_slide_row_reference(expected_sums.data(), expected_ring.data(), left.data(),
+                                            right.data(), kCols, lanes, scale, order);
+        for (const std::int64_t target : targets) {
+          hwy::SetSupportedTargetsForTest(target);
+          SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target) + ", lanes " +
+                       std::to_string(lanes) + ", order " + std::to_string(order) + ", scale " +
+                       std::to_string(scale));
+          ASSERT_STREQ(kernels::census_target_name(), hwy::TargetName(target));
+          std::vector<std::uint16_t> sums = sums0;
+          std::vector<std::uint8_t> ring = ring0;
+          kernels::census_slide_row(sums.data(), ring.data(), left.data(), right.data(), kCols,
+                                    lanes, scale, order);
+          EXPECT_EQ(sums, expected_sums);
+          EXPECT_EQ(ring, expected_ring);
+        }
+        hwy::SetSupportedTargetsForTest(0);
+      }
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Semi-global matcher
 
