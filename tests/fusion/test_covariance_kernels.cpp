@@ -12,20 +12,17 @@
 #include <vector>
 
 #include "kestrel/fusion/covariance_kernels.hpp"
+#include "simd_targets.hpp"
 
 namespace kestrel::fusion::kernels {
 namespace {
 
-// Runs `body` on every SIMD target the kernel has for this CPU, naming it in any failure.
+// Runs `body(target)` on every SIMD target the kernel has for this CPU
+// (tests/support/simd_targets.hpp).
 template <class Body>
 void on_every_simd_target(Body&& body) {
-  for (const std::int64_t target : simd_targets()) {
-    hwy::SetSupportedTargetsForTest(target);
-    SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target));
-    ASSERT_STREQ(simd_target(), hwy::TargetName(target));  // the dispatch took it
-    body(target);
-  }
-  hwy::SetSupportedTargetsForTest(0);
+  test::on_every_simd_target(
+      simd_targets(), [] { return simd_target(); }, body);
 }
 
 // Targets whose MulAdd rounds twice (no fused multiply-add): SSSE3, SSE4 and the emulations.

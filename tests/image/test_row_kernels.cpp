@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "kestrel/image/row_kernels.hpp"
+#include "simd_targets.hpp"
 
 namespace kestrel::image::kernels {
 namespace {
@@ -20,13 +21,8 @@ namespace {
 // Runs `body` on every SIMD target the kernels have for this CPU, naming it in any failure.
 template <class Body>
 void on_every_simd_target(Body&& body) {
-  for (const std::int64_t target : simd_targets()) {
-    hwy::SetSupportedTargetsForTest(target);
-    SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target));
-    ASSERT_STREQ(simd_target(), hwy::TargetName(target));  // the dispatch took it
-    body();
-  }
-  hwy::SetSupportedTargetsForTest(0);
+  test::on_every_simd_target(
+      simd_targets(), [] { return simd_target(); }, [&](std::int64_t) { body(); });
 }
 
 // Bit patterns, so that NaN == NaN and -0 != +0.

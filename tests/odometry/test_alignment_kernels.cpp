@@ -16,6 +16,7 @@
 
 #include "kestrel/odometry/alignment_kernels.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
+#include "simd_targets.hpp"
 
 namespace kestrel::odometry::kernels {
 namespace {
@@ -26,13 +27,8 @@ constexpr float kC = 4.6851F;
 // in any failure: each target's kernels against the one scalar reference.
 template <class Body>
 void on_every_simd_target(Body&& body) {
-  for (const std::int64_t target : simd_targets()) {
-    hwy::SetSupportedTargetsForTest(target);
-    SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target));
-    ASSERT_STREQ(simd_target(), hwy::TargetName(target));  // the dispatch took it
-    body();
-  }
-  hwy::SetSupportedTargetsForTest(0);
+  test::on_every_simd_target(
+      simd_targets(), [] { return simd_target(); }, [&](std::int64_t) { body(); });
 }
 
 TEST(AlignmentKernels, RunOnTheBestSimdTargetOfTheCpu) {

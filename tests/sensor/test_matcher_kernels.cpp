@@ -22,6 +22,7 @@
 #include "kestrel/sensor/pattern.hpp"
 #include "kestrel/sensor/rectification.hpp"
 #include "kestrel/sensor/sgm_matcher.hpp"
+#include "simd_targets.hpp"
 #include "synthetic_stereo.hpp"
 
 namespace kestrel::sensor {
@@ -139,13 +140,9 @@ struct Case {
 // naming the target in any failure.
 template <class Body>
 void on_every_simd_target(Body&& body) {
-  for (const std::int64_t target : block_matching_simd_targets()) {
-    hwy::SetSupportedTargetsForTest(target);
-    SCOPED_TRACE(std::string("SIMD target ") + hwy::TargetName(target));
-    ASSERT_STREQ(block_matching_simd_target(), hwy::TargetName(target));  // the dispatch took it
-    body();
-  }
-  hwy::SetSupportedTargetsForTest(0);
+  test::on_every_simd_target(
+      block_matching_simd_targets(), [] { return block_matching_simd_target(); },
+      [&](std::int64_t) { body(); });
 }
 
 /// Each case on each pair: the SIMD kernels on every target against the scalar reference
