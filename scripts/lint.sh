@@ -2,12 +2,20 @@
 # Checks that need no build: every C++ file is formatted as .clang-format says, and no function
 # of the odometry is longer than 80 lines (issue 26: clang-tidy's readability-function-size on a
 # compile database configured apart, without the unity build, so that each source is its own
-# translation unit). Exits non-zero on any finding; `clang-format -i FILE` fixes the first kind.
+# translation unit), and no hand-written x86 or NEON intrinsic in src/ or include/ (issue 33: the
+# SIMD code is Highway's, one source for every target). Exits non-zero on any finding;
+# `clang-format -i FILE` fixes the first kind.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mapfile -t sources < <(git ls-files '*.cpp' '*.hpp' '*.h' '*.cu' '*.cuh')
 echo "lint: clang-format on ${#sources[@]} files"
 clang-format --dry-run --Werror "${sources[@]}"
+
+echo "lint: no x86 or NEON intrinsics in src/ and include/"
+if git grep -nE '\b_mm(256|512)?_[a-z]|[a-z]*mmintrin\.h|arm_neon\.h' -- src include; then
+  echo "lint: the intrinsics above: write them with Highway (docs/onboard.md)" >&2
+  exit 1
+fi
 
 cdb=$(mktemp -d)
 trap 'rm -rf "$cdb"' EXIT

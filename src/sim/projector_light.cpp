@@ -7,9 +7,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -188,16 +185,11 @@ namespace {
 using Lanes = float __attribute__((vector_size(16)));
 
 inline Lanes load_pixel(const std::uint16_t* p) {
-#if defined(__SSE2__)
-  // Widened in registers: GCC's __builtin_convertvector converts one lane at a time here.
-  const __m128i v = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p));
-  return Lanes(_mm_cvtepi32_ps(_mm_unpacklo_epi16(v, _mm_setzero_si128())));
-#else
+  // Portable vector extension, no x86 intrinsics (docs/onboard.md: none in src/).
   using Lanes16 = std::uint16_t __attribute__((vector_size(8)));
   Lanes16 v;
   std::memcpy(&v, p, sizeof v);
   return __builtin_convertvector(v, Lanes);
-#endif
 }
 
 }  // namespace
