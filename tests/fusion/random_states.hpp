@@ -1,5 +1,5 @@
-// Random nominal states for the fusion's Jacobian tests (test_ekf_jacobians.cpp,
-// test_time_offset.cpp).
+// Random nominal states and IMU readings for the fusion's Jacobian and covariance tests
+// (test_ekf_jacobians.cpp, test_time_offset.cpp, test_covariance_steps.cpp).
 #pragma once
 
 #include <random>
@@ -36,6 +36,13 @@ inline NominalState random_state(std::mt19937_64& rng, bool offset_and_rates = f
     x.omega_clone_body = v3(1.5);
   }
   return x;
+}
+
+/// A random IMU reading: rates of 1.5 rad/s and accelerations of 3 m/s^2 per axis about 1 g.
+inline ImuReading random_reading(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  return {Eigen::Vector3d(n(rng), n(rng), n(rng)) * 1.5,
+          Eigen::Vector3d(n(rng), n(rng), n(rng)) * 3.0 + Eigen::Vector3d(0, 0, 9.81)};
 }
 
 }  // namespace kestrel::fusion::random_states

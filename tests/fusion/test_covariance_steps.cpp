@@ -11,6 +11,7 @@ namespace kestrel::fusion {
 namespace {
 
 using Eigen::Vector3d;
+using random_states::random_reading;
 using random_states::random_state;
 
 MatrixXs random_spd_covariance(std::mt19937_64& rng) {
@@ -19,11 +20,6 @@ MatrixXs random_spd_covariance(std::mt19937_64& rng) {
   for (int i = 0; i < A.size(); ++i) A.data()[i] = n(rng);
   const MatrixXs P = A * A.transpose() + 0.1 * MatrixXs::Identity();
   return 0.5 * (P + P.transpose());  // exactly symmetric, as the filter keeps its covariance
-}
-
-ImuReading reading_near_hover(std::mt19937_64& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  return {Vector3d(n(rng), n(rng), n(rng)), Vector3d(n(rng), n(rng), n(rng) + 9.81)};
 }
 
 double relative_difference(const MatrixXs& a, const MatrixXs& b) {
@@ -67,7 +63,7 @@ TEST(FusionCovarianceSteps, StructuredPropagationEqualsTheDenseProduct) {
   const ImuNoiseDensities noise;
   for (int trial = 0; trial < 40; ++trial) {
     const NominalState x = random_state(rng);
-    const ImuReading m = reading_near_hover(rng);
+    const ImuReading m = random_reading(rng);
     const double dt = trial % 2 ? 0.001 : 0.05;
     const NominalState next = StochasticCloningEkf::propagate_nominal(x, m, dt, g);
     VectorXs d = VectorXs::Zero();

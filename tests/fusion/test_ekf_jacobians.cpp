@@ -12,13 +12,8 @@ namespace {
 
 using Eigen::Vector3d;
 
+using random_states::random_reading;
 using random_states::random_state;
-
-ImuReading random_reading(std::mt19937_64& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  return {Vector3d(n(rng), n(rng), n(rng)) * 1.5,
-          Vector3d(n(rng), n(rng), n(rng)) * 3.0 + Vector3d(0, 0, 9.81)};
-}
 
 TEST(FusionJacobians, PropagationTransitionMatchesFiniteDifferences) {
   std::mt19937_64 rng(7);
