@@ -105,6 +105,9 @@ struct DirectTracker::Impl {
   // and the robust scales' scratch.
   TermBuffers photometric_buffers, geometric_buffers;
   std::vector<float> abs_residual;
+  // Per level, each term's median |r| at the end of its last alignment there: where the next
+  // alignment's scale estimate looks first (ResidualTerm::set_median_hint).
+  std::vector<float> photometric_median_hint, geometric_median_hint;
 
   // Sequence state.
   bool has_prev = false;
@@ -559,6 +562,14 @@ class LevelTerms {
     }
     m.photometric_buffers.pad(L.count);
     m.geometric_buffers.pad(L.count);
+    photometric_.set_median_hint(hint_slot(m.photometric_median_hint, level));
+    if (geometric_) geometric_->set_median_hint(hint_slot(m.geometric_median_hint, level));
+  }
+
+  // Keeps the terms' last medians for the next alignment of this level.
+  void keep_median_hints(DirectTracker::Impl& m, int level) const {
+    hint_slot(m.photometric_median_hint, level) = photometric_.median_hint();
+    if (geometric_) hint_slot(m.geometric_median_hint, level) = geometric_->median_hint();
   }
 
   [[nodiscard]] std::span<ResidualTerm* const> list() const { return {list_.data(), size_}; }
@@ -584,6 +595,12 @@ class LevelTerms {
         std::in_place, L, m.depth_pyramid.level(level),
         static_cast<float>(o.terms.depth_max_relative_spread), m.geometric_buffers,
         static_cast<float>(o.robust.tukey_c), ScaleRule{6, floor, 0.0, 5e-5});
+  }
+
+  static float& hint_slot(std::vector<float>& hints, int level) {
+    const auto l = static_cast<std::size_t>(level);
+    if (hints.size() <= l) hints.resize(l + 1, 0.0F);
+    return hints[l];
   }
 
   PhotometricTerm photometric_;
@@ -735,6 +752,7 @@ struct AlignRunner {
       LevelSolver solver(level_terms.list(), SolverRules::for_level(o, l, L), l, L.count,
                          m.abs_residual.data(), est, res);
       const LevelEnd end = solver.run();
+      level_terms.keep_median_hints(m, l);
       if (end == LevelEnd::kFailed) {
         out.T_cur_ref = est.T_cur_ref;
         return out;

@@ -426,6 +426,40 @@ TEST(AlignmentKernels, AbsMedianIsTheUpperMedianWhateverTheHint) {
   });
 }
 
+// The selection finds the median digit by digit of the floats' bits: shapes that stop it at
+// each digit (all values equal, values a few ulps apart, half zeros, denormals, twelve decades
+// of magnitude), on sizes below and above where it hands over to nth_element.
+TEST(AlignmentKernels, AbsMedianOnEveryDigitOfTheFloatBits) {
+  std::mt19937 rng(3);
+  std::lognormal_distribution<float> wide(0.0F, 6.0F);
+  std::uniform_int_distribution<int> ulps(0, 300);
+  std::bernoulli_distribution coin(0.5);
+  for (const int n : {31, 33, 500, 6001, 20000}) {
+    for (int shape = 0; shape < 5; ++shape) {
+      std::vector<float> r(static_cast<std::size_t>(n)), scratch(r.size());
+      const std::vector<std::uint8_t> valid(r.size(), 1);
+      for (auto& v : r) {
+        if (shape == 0) v = -0.125F;  // all equal (and negative: |r| is selected)
+        if (shape == 1)
+          v = 1.0F + static_cast<float>(ulps(rng)) * std::numeric_limits<float>::epsilon();
+        if (shape == 2) v = coin(rng) ? 0.0F : wide(rng);
+        if (shape == 3)
+          v = static_cast<float>(ulps(rng)) * std::numeric_limits<float>::denorm_min();
+        if (shape == 4) v = coin(rng) ? -wide(rng) : wide(rng);
+      }
+      std::vector<float> sorted(r.size());
+      std::transform(r.begin(), r.end(), sorted.begin(), [](float v) { return std::fabs(v); });
+      std::sort(sorted.begin(), sorted.end());
+      const float expected = sorted[static_cast<std::size_t>(n / 2)];
+      for (const float hint : {0.0F, expected}) {
+        const AbsMedian got = abs_median(r.data(), valid.data(), n, hint, scratch.data());
+        EXPECT_EQ(got.valid, n);
+        EXPECT_EQ(got.median, expected) << "n " << n << " shape " << shape << " hint " << hint;
+      }
+    }
+  }
+}
+
 TEST(RobustSigma, FromTheMedianEqualsTheSelection) {
   std::vector<float> r = {0.5F, 0.1F, 0.3F, 0.2F, 0.4F, 0.6F, 0.9F, 0.7F, 0.8F, 0.05F};
   const double from_median = robust_sigma_from_median(0.5, static_cast<int>(r.size()), 6);

@@ -74,6 +74,13 @@ class ResidualTerm {
   /// 0). `scratch` has room for the level's points.
   void update_scale(int iteration, float* scratch);
 
+  /// Where the next median |r| is looked for first: the median of an earlier alignment of the
+  /// same level (a narrow bracket around it replaces a selection over all residuals). Speed
+  /// only: the median is exact wherever it lies. 0 (the start) looks at all residuals.
+  void set_median_hint(float median) { median_hint_ = median; }
+  /// The last scale update's median |r| (0 before the first).
+  [[nodiscard]] float median_hint() const { return median_hint_; }
+
   [[nodiscard]] double sigma() const { return sigma_; }
   [[nodiscard]] int valid() const { return valid_; }      ///< at the last evaluation
   [[nodiscard]] int inliers() const { return inliers_; }  ///< at the last weighing
