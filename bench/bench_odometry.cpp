@@ -21,6 +21,7 @@
 #include "kestrel/io/tum_rgbd.hpp"
 #include "kestrel/odometry/alignment_kernels.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
+#include "kestrel/odometry/point_selection.hpp"
 #include "kestrel/odometry/robust_weights.hpp"
 
 namespace {
@@ -475,5 +476,49 @@ void BM_TrackRealSequence(benchmark::State& s) {
   s.counters["iters_per_frame"] = static_cast<double>(iterations) / n;
 }
 BENCHMARK(BM_TrackRealSequence)->Arg(0)->Arg(1)->Arg(2)->Arg(3)->Unit(benchmark::kMillisecond);
+
+// The point selection of a keyframe's full-resolution level (select_strongest, 6000 of the
+// 640x480 scores) on the first fr1/rpy frame: squared gradients of its intensity where the
+// depth is valid and the gradient above the default min_gradient, 0 elsewhere, as the tracker
+// scores them.
+void BM_SelectStrongest(benchmark::State& s) {
+  const RealSequence& seq = fr1_rpy();
+  if (!seq.error.empty()) {
+    s.SkipWithError(seq.error.c_str());
+    return;
+  }
+  const odometry::DirectTrackerOptions o;
+  cv::Mat intensity, gx, gy;
+  image::to_intensity(seq.frames.front().image, intensity);
+  image::central_gradients(intensity, gx, gy);
+  const cv::Mat& depth = seq.frames.front().depth_m;
+  const auto g2min = static_cast<float>(o.selection.min_gradient * o.selection.min_gradient);
+  const auto zmin = static_cast<float>(o.selection.min_depth_m);
+  const auto zmax = static_cast<float>(o.selection.max_depth_m);
+  std::vector<float> scores(static_cast<std::size_t>(intensity.total()), 0.0F);
+  std::size_t positive = 0;
+  for (int y = 1; y + 1 < intensity.rows; ++y) {
+    for (int x = 1; x + 1 < intensity.cols; ++x) {
+      const float g2 =
+          gx.at<float>(y, x) * gx.at<float>(y, x) + gy.at<float>(y, x) * gy.at<float>(y, x);
+      const float z = depth.at<float>(y, x);
+      const bool ok = z >= zmin && z <= zmax && g2 >= g2min;
+      scores[static_cast<std::size_t>(y) * static_cast<std::size_t>(intensity.cols) +
+             static_cast<std::size_t>(x)] = ok ? g2 : 0.0F;
+      positive += ok && g2 > 0.0F ? 1 : 0;
+    }
+  }
+  std::vector<int> selected;
+  odometry::SelectionScratch scratch;
+  for (auto _ : s) {
+    odometry::select_strongest(scores, static_cast<std::size_t>(o.selection.max_points), selected,
+                               scratch);
+    benchmark::DoNotOptimize(selected.data());
+  }
+  s.counters["candidates"] = static_cast<double>(positive);
+  s.counters["selected"] = static_cast<double>(selected.size());
+  s.SetItemsProcessed(s.iterations() * static_cast<std::int64_t>(scores.size()));
+}
+BENCHMARK(BM_SelectStrongest);
 
 }  // namespace

@@ -19,37 +19,48 @@ void select_strongest(std::span<const float> scores, std::size_t cap, std::vecto
                       SelectionScratch& scratch) {
   out.clear();
   const std::size_t n = scores.size();
-  auto& hist = scratch.histogram;
-  hist.fill(0);
-  std::size_t positive = 0;
-  for (const float s : scores) {
-    // NaN and s <= 0 fail the test; positives below 2^-126 (denormals) land in bucket 0.
-    const bool take = s > 0.0F;
-    hist[take ? bucket_of(s) : 0] += take ? 1U : 0U;
-    positive += take ? 1 : 0;
+  // The positive scores and their indices, packed in image order. Branch-free: every value is
+  // written and the end advances only past a positive one (NaN and s <= 0 fail the test), so a
+  // ragged mix of textured and flat pixels costs no mispredicted branch.
+  auto& index = scratch.index;
+  auto& score = scratch.score;
+  if (index.size() < n) {
+    index.resize(n);
+    score.resize(n);
   }
-  if (cap == 0 || positive <= cap) {
-    out.reserve(positive);
-    for (std::size_t j = 0; j < n; ++j) {
-      if (scores[j] > 0.0F) out.push_back(static_cast<int>(j));
-    }
+  std::size_t m = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    const float s = scores[j];
+    index[m] = static_cast<int>(j);
+    score[m] = s;
+    m += s > 0.0F ? 1 : 0;
+  }
+  if (cap == 0 || m <= cap) {
+    out.assign(index.begin(), index.begin() + static_cast<std::ptrdiff_t>(m));
     return;
   }
+  // Positives below 2^-126 (denormals) land in bucket 0.
+  auto& hist = scratch.histogram;
+  hist.fill(0);
+  for (std::size_t i = 0; i < m; ++i) ++hist[bucket_of(score[i])];
   // The bucket holding the cap-th largest score, and how many scores lie above it.
   std::size_t above = 0;
   std::uint32_t b = static_cast<std::uint32_t>(hist.size() - 1);
   while (above + hist[b] < cap) above += hist[b--];
-  // One pass: every pixel at or above that bucket's lower bound, in image order; then the cut-off
-  // among the bucket's own scores, and a filter of that short list (~cap + the bucket) in place.
+  // Every score at or above that bucket's lower bound, kept in place (still in image order);
+  // then the cut-off among the bucket's own scores.
   const float lower = std::bit_cast<float>(b << kShift);
-  for (std::size_t j = 0; j < n; ++j) {
-    if (scores[j] >= lower) out.push_back(static_cast<int>(j));
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < m; ++i) {
+    const float s = score[i];
+    index[kept] = index[i];
+    score[kept] = s;
+    kept += s >= lower ? 1 : 0;
   }
   auto& in_bucket = scratch.bucket;
   in_bucket.clear();
-  for (const int j : out) {
-    const float s = scores[static_cast<std::size_t>(j)];
-    if (bucket_of(s) == b) in_bucket.push_back(s);
+  for (std::size_t i = 0; i < kept; ++i) {
+    if (bucket_of(score[i]) == b) in_bucket.push_back(score[i]);
   }
   // The cut-off: the (cap - above)-th largest of the bucket.
   const std::size_t rank = cap - above - 1;
@@ -63,19 +74,19 @@ void select_strongest(std::span<const float> scores, std::size_t cap, std::vecto
   }
   const std::size_t ties_needed = cap - greater;
   // Keep every score above the cut-off and ties_needed of the ties, spread evenly (Bresenham).
-  std::size_t acc = ties / 2, kept = 0;
-  for (const int j : out) {
-    const float s = scores[static_cast<std::size_t>(j)];
+  out.resize(cap);
+  std::size_t acc = ties / 2, taken = 0;
+  for (std::size_t i = 0; i < kept; ++i) {
+    const float s = score[i];
     bool keep = s > cut;
     if (s == cut) {
       acc += ties_needed;
       keep = acc >= ties;
       acc -= keep ? ties : 0;
     }
-    out[kept] = j;
-    kept += keep ? 1 : 0;
+    if (keep) out[taken++] = index[i];
   }
-  out.resize(kept);
+  out.resize(taken);
 }
 
 }  // namespace kestrel::odometry

@@ -13,6 +13,8 @@ namespace kestrel::odometry {
 /// Reusable buffers of select_strongest(): no allocation once they have grown.
 struct SelectionScratch {
   std::array<std::uint32_t, 4096> histogram{};
+  std::vector<int> index;    ///< the positive scores' indices, packed
+  std::vector<float> score;  ///< ... and their scores
   std::vector<float> bucket;
 };
 
