@@ -80,6 +80,9 @@ struct DirectTracker::Impl {
   // The current frame's reference data, for the fallback's rotation from the previous frame
   // (swapped with `ref` while it runs; reused, so allocation-free once warm).
   std::vector<ReferenceLevel> current_ref;
+  // Levels [finest, current_ref_levels) of current_ref hold this frame's reference data (the
+  // fallback's rotation built them): a keyframe switch on this frame takes them (0: none).
+  int current_ref_levels = 0;
   bool has_ref = false;
   TimeNs ref_t_ns = 0;
   SE3 T_world_ref;
@@ -140,6 +143,7 @@ struct DirectTracker::Impl {
     rolling_shutter->rectify_intensity(intensity_raw, intensity);
     rolling_shutter->rectify_depth(depth_raw, depth);
     depth_pyramid_current = false;
+    current_ref_levels = 0;
     pyramid.build(intensity, o.pyramid.levels, o.pyramid.filter);
     if (o.terms.geometric == GeometricTerm::kAlways) ensure_depth_pyramid(o);
   }
@@ -214,6 +218,7 @@ void DirectTracker::reset() {
   impl_->has_ref = false;
   impl_->has_prev = false;
   impl_->has_velocity = false;
+  impl_->current_ref_levels = 0;
   impl_->depth_raw.release();
 }
 
@@ -261,14 +266,18 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 }  // namespace
 
 struct TrackerAccess {
-  // Reference building: gradients, selection and the precomputed IC Jacobians per level.
+  // Reference building: gradients, selection and the precomputed IC Jacobians per level, from
+  // `first_level` up (the finer ones already hold this frame's; by default none do).
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                              const std::vector<PinholeCamera>& cams) {
+                              const std::vector<PinholeCamera>& cams, int first_level = -1) {
     prepare_reference_maps(m, o);
+    const int finest = o.pyramid.finest_level;
+    for (int l = std::max(first_level, finest); l < o.pyramid.levels; ++l) {
+      build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l);
+    }
     std::size_t max_count = 0;
-    for (int l = o.pyramid.finest_level; l < o.pyramid.levels; ++l) {
-      max_count =
-          std::max(max_count, build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l));
+    for (int l = finest; l < o.pyramid.levels; ++l) {
+      max_count = std::max(max_count, m.ref[static_cast<std::size_t>(l)].x.size());
     }
     if (m.abs_residual.size() < max_count) m.abs_residual.resize(max_count);
     m.photometric_buffers.reserve(max_count);
@@ -291,8 +300,8 @@ struct TrackerAccess {
     }
   }
 
-  // One level's points, Jacobians, normals and median depth; returns its padded point count.
-  static std::size_t build_reference_level(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+  // One level's points (padded to whole SIMD lanes), Jacobians, normals and median depth.
+  static void build_reference_level(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                                            const PinholeCamera& cam, int l) {
     const bool disp = m.disparity_input;
     ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
@@ -322,7 +331,6 @@ struct TrackerAccess {
     } else {
       L.median_depth = 0.0;
     }
-    return padded;
   }
 
   // Score = squared gradient where the point is usable (depth in range, gradient above
@@ -471,6 +479,7 @@ struct TrackerAccess {
 namespace {
 
 void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const DirectTrackerOptions& o) {
+  m.current_ref_levels = 0;
   std::swap(m.pyramid, m.prev_pyramid);
   std::swap(m.disparity, m.prev_disparity);
   // Rectified views: no undistortion.
@@ -480,6 +489,7 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 }
 
 void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o) {
+  m.current_ref_levels = 0;
   std::swap(m.pyramid, m.prev_pyramid);
   std::swap(m.depth, m.prev_depth);
   std::swap(m.depth_pyramid, m.prev_depth_pyramid);
@@ -720,6 +730,7 @@ struct AlignRunner {
     const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
     m.swap_current_and_previous();
     std::swap(m.ref, m.current_ref);
+    m.current_ref_levels = levels.pyramid.levels;
     m.rs_ref_rectified = keyframe_rectified;
     iterations += b.result.iterations;
     if (!b.result.ok()) return std::nullopt;
@@ -868,7 +879,17 @@ class TrackingStep {
   }
 
  private:
-  void build_reference() { TrackerAccess::build_reference(m_, o_, m_.level_cameras); }
+  // This frame becomes the reference. Where the fallback's rotation already built its finest
+  // levels (current_ref), they are taken as they are and only the coarser ones are built.
+  void build_reference() {
+    int first_level = o_.pyramid.finest_level;
+    if (m_.current_ref_levels > first_level) {
+      std::swap(m_.ref, m_.current_ref);
+      first_level = m_.current_ref_levels;
+      m_.current_ref_levels = 0;
+    }
+    TrackerAccess::build_reference(m_, o_, m_.level_cameras, first_level);
+  }
 
   // The first frame (or the first after a reset) defines the world and is the keyframe.
   TrackResult start_sequence() {
