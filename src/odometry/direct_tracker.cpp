@@ -12,6 +12,7 @@
 #include <span>
 #include <type_traits>
 
+#include "alignment_kernels_reference.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"
@@ -98,7 +99,8 @@ struct DirectTracker::Impl {
   // frame's depth levels. `depth_pyramid_current`: it holds the current frame's depth.
   image::DepthPyramid depth_pyramid;
   bool depth_pyramid_current = false, prev_depth_pyramid_current = false;
-  cv::Mat gx, gy;
+  // Intensity gradients per level, each kept at its level's size: no reallocation per keyframe.
+  std::vector<cv::Mat> gx, gy;
   std::vector<float> scores;  // per pixel of a level: squared gradient of a usable point, or 0
   std::vector<int> selected;  // the chosen pixels' indices, image order
   SelectionScratch selection_scratch;
@@ -119,6 +121,14 @@ struct DirectTracker::Impl {
   SE3 velocity;  // T_prevprev_prev
   TimeNs t_prev = 0;
   TimeNs dt_prev = 0;
+
+  void resize_levels(int levels) {
+    const auto n = static_cast<std::size_t>(levels);
+    ref.resize(n);
+    current_ref.resize(n);
+    gx.resize(n);
+    gy.resize(n);
+  }
 
   // Rolling shutter (RollingShutter::readout_s > 0; it undistorts as well): the current
   // frame's raw depth, the caller's map itself (not a copy; held only during track(): its raw
@@ -182,8 +192,7 @@ DirectTracker::DirectTracker(const PinholeCamera& camera, const DirectTrackerOpt
   for (int l = 0; l < options_.pyramid.levels; ++l, s *= 0.5) {
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
   }
-  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
-  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
+  impl_->resize_levels(options_.pyramid.levels);
 }
 
 DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOptions& options)
@@ -208,8 +217,7 @@ DirectTracker::DirectTracker(const RectifiedStereo& rig, const DirectTrackerOpti
   for (int l = 0; l < options_.pyramid.levels; ++l, s *= 0.5) {
     impl_->level_cameras.push_back(l == 0 ? camera_ : camera_.scaled(s));
   }
-  impl_->ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
-  impl_->current_ref.resize(static_cast<std::size_t>(options_.pyramid.levels));
+  impl_->resize_levels(options_.pyramid.levels);
 }
 
 DirectTracker::~DirectTracker() = default;
@@ -302,7 +310,7 @@ struct TrackerAccess {
 
   // One level's points (padded to whole SIMD lanes), Jacobians, normals and median depth.
   static void build_reference_level(DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                                           const PinholeCamera& cam, int l) {
+                                    const PinholeCamera& cam, int l) {
     const bool disp = m.disparity_input;
     ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
     const cv::Mat& img = m.pyramid.level(l);
@@ -315,19 +323,20 @@ struct TrackerAccess {
     L.cy = static_cast<float>(cam.cy());
     L.width = img.cols;
     L.height = img.rows;
-    image::central_gradients(img, m.gx, m.gy);
-    select_points(m, o, img, dep);
+    const auto level = static_cast<std::size_t>(l);
+    image::central_gradients(img, m.gx[level], m.gy[level]);
+    select_points(m, o, img, dep, m.gx[level], m.gy[level]);
     const int n = static_cast<int>(m.selected.size());
     const auto padded = static_cast<std::size_t>(pad_to_lanes(n));
     reset_points(L, n, padded);
     m.depth_scratch.clear();
-    const PointSource src{img, dep, cam,
-                          disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{}};
+    const PointSource src{
+        img, m.gx[level], m.gy[level],
+        dep, cam,         disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{}};
     for (int i = 0; i < n; ++i) add_point(m, o, src, m.selected[static_cast<std::size_t>(i)], i, L);
     if (!m.depth_scratch.empty()) {
-      auto mid = m.depth_scratch.begin() + static_cast<long>(m.depth_scratch.size() / 2);
-      std::nth_element(m.depth_scratch.begin(), mid, m.depth_scratch.end());
-      L.median_depth = *mid;
+      const auto count = static_cast<int>(m.depth_scratch.size());
+      L.median_depth = kernels::select_kth(m.depth_scratch.data(), count, count / 2);
     } else {
       L.median_depth = 0.0;
     }
@@ -337,7 +346,8 @@ struct TrackerAccess {
   // min_gradient), 0 elsewhere and on the border; branch-free, so it vectorises. Then the
   // strongest selection.max_points in image order (point_selection.hpp) into m.selected.
   static void select_points(DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                            const cv::Mat& img, const cv::Mat& dep) {
+                            const cv::Mat& img, const cv::Mat& dep, const cv::Mat& gx,
+                            const cv::Mat& gy) {
     // The depth range; in disparity space d in [f B / max_depth, f B / min_depth], the same
     // numbers on every level (d stays in full-resolution pixels).
     const bool disp = m.disparity_input;
@@ -350,8 +360,8 @@ struct TrackerAccess {
     m.scores.assign(static_cast<std::size_t>(img.rows) * static_cast<std::size_t>(img.cols), 0.0F);
     for (int y = 1; y < img.rows - 1; ++y) {
       const float* d = dep.ptr<float>(y);
-      const float* gxr = m.gx.ptr<float>(y);
-      const float* gyr = m.gy.ptr<float>(y);
+      const float* gxr = gx.ptr<float>(y);
+      const float* gyr = gy.ptr<float>(y);
       float* sc = m.scores.data() + static_cast<std::ptrdiff_t>(y) * img.cols;
       for (int x = 1; x < img.cols - 1; ++x) {
         const float z = d[x];
@@ -383,6 +393,8 @@ struct TrackerAccess {
   // What a level's points are read from.
   struct PointSource {
     const cv::Mat& img;
+    const cv::Mat& gx;  // its intensity gradients
+    const cv::Mat& gy;
     const cv::Mat& dep;  // depth (m) or disparity (full-resolution px)
     const PinholeCamera& cam;
     DisparitySpaceCamera dcam;  // disparity input only
@@ -404,8 +416,8 @@ struct TrackerAccess {
     const int u = idx % img.cols;
     const int v = idx / img.cols;
     const float* img_data = img.ptr<float>();
-    const float* gx_data = m.gx.ptr<float>();
-    const float* gy_data = m.gy.ptr<float>();
+    const float* gx_data = src.gx.ptr<float>();
+    const float* gy_data = src.gy.ptr<float>();
     PointDepth pd{Eigen::Vector3d::Zero(), src.dep.ptr<float>()[idx], u, v};
     Vector8d J;
     if (m.disparity_input) {
