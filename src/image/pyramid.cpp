@@ -63,18 +63,36 @@ void downsample_depth(const cv::Mat& in, cv::Mat& out, float max_relative_spread
 }
 
 void IntensityPyramid::build(const cv::Mat& level0, int levels, PyramidFilter filter) {
+  level0.copyTo(base());
+  build_from_base(levels, filter);
+}
+
+cv::Mat& IntensityPyramid::base() {
+  if (levels_.empty()) levels_.resize(1);
+  return levels_[0];
+}
+
+void IntensityPyramid::build_from_base(int levels, PyramidFilter filter) {
   if (levels < 1) throw std::invalid_argument("IntensityPyramid: levels must be >= 1");
   levels_.resize(static_cast<std::size_t>(levels));
-  level0.copyTo(levels_[0]);
   for (std::size_t l = 1; l < levels_.size(); ++l) {
     downsample_intensity(levels_[l - 1], levels_[l], filter, scratch_);
   }
 }
 
 void DepthPyramid::build(const cv::Mat& level0_depth_m, int levels, float max_relative_spread) {
+  level0_depth_m.copyTo(base());
+  build_from_base(levels, max_relative_spread);
+}
+
+cv::Mat& DepthPyramid::base() {
+  if (levels_.empty()) levels_.resize(1);
+  return levels_[0];
+}
+
+void DepthPyramid::build_from_base(int levels, float max_relative_spread) {
   if (levels < 1) throw std::invalid_argument("DepthPyramid: levels must be >= 1");
   levels_.resize(static_cast<std::size_t>(levels));
-  level0_depth_m.copyTo(levels_[0]);
   for (std::size_t l = 1; l < levels_.size(); ++l) {
     downsample_depth(levels_[l - 1], levels_[l], max_relative_spread);
   }

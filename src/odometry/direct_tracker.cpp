@@ -68,11 +68,11 @@ struct DirectTracker::Impl {
   image::Undistorter undistorter;
   std::vector<PinholeCamera> level_cameras;
 
-  // Current frame (reused buffers).
-  cv::Mat intensity_raw, intensity, depth;
+  // Current frame (reused buffers). Its intensity and depth are written straight into the
+  // pyramids' level 0 (IntensityPyramid::base, DepthPyramid::base): no copy of either.
+  cv::Mat intensity_raw;
   image::IntensityPyramid pyramid;
   // The previous frame's (swapped, not copied): the fallback reference after a failure.
-  cv::Mat prev_depth;
   image::IntensityPyramid prev_pyramid;
   image::DepthPyramid prev_depth_pyramid;
 
@@ -95,8 +95,8 @@ struct DirectTracker::Impl {
   cv::Mat disparity, prev_disparity;
   std::vector<cv::Mat> disparity_levels;
 
-  // Reference construction scratch; with the depth residual (or its fallback) also the current
-  // frame's depth levels. `depth_pyramid_current`: it holds the current frame's depth.
+  // The current frame's depth: level 0 always, the coarser levels where a step needs them (the
+  // depth residual, a new reference, the fallback); `depth_pyramid_current`: they are built.
   image::DepthPyramid depth_pyramid;
   bool depth_pyramid_current = false, prev_depth_pyramid_current = false;
   // Intensity gradients per level, each kept at its level's size: no reallocation per keyframe.
@@ -150,11 +150,11 @@ struct DirectTracker::Impl {
   // rotation rate `omega_rad_s` (camera frame).
   void rectify_rolling_shutter(const Eigen::Vector3d& omega_rad_s, const DirectTrackerOptions& o) {
     rolling_shutter->set_rotation_rate(omega_rad_s);
-    rolling_shutter->rectify_intensity(intensity_raw, intensity);
-    rolling_shutter->rectify_depth(depth_raw, depth);
+    rolling_shutter->rectify_intensity(intensity_raw, pyramid.base());
+    rolling_shutter->rectify_depth(depth_raw, depth_pyramid.base());
     depth_pyramid_current = false;
     current_ref_levels = 0;
-    pyramid.build(intensity, o.pyramid.levels, o.pyramid.filter);
+    pyramid.build_from_base(o.pyramid.levels, o.pyramid.filter);
     if (o.terms.geometric == GeometricTerm::kAlways) ensure_depth_pyramid(o);
   }
 
@@ -163,7 +163,6 @@ struct DirectTracker::Impl {
   // swaps back.
   void swap_current_and_previous() {
     std::swap(pyramid, prev_pyramid);
-    std::swap(depth, prev_depth);
     std::swap(depth_pyramid, prev_depth_pyramid);
     std::swap(depth_pyramid_current, prev_depth_pyramid_current);
     std::swap(disparity, prev_disparity);
@@ -173,8 +172,8 @@ struct DirectTracker::Impl {
   // residual, a new reference, the geometric fallback).
   void ensure_depth_pyramid(const DirectTrackerOptions& o) {
     if (depth_pyramid_current) return;
-    depth_pyramid.build(depth, o.pyramid.levels,
-                        static_cast<float>(o.pyramid.depth_max_relative_spread));
+    depth_pyramid.build_from_base(o.pyramid.levels,
+                                  static_cast<float>(o.pyramid.depth_max_relative_spread));
     depth_pyramid_current = true;
   }
 };
@@ -495,20 +494,19 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
   std::swap(m.pyramid, m.prev_pyramid);
   std::swap(m.disparity, m.prev_disparity);
   // Rectified views: no undistortion.
-  image::to_intensity(f.image, m.intensity);
+  image::to_intensity(f.image, m.pyramid.base());
   f.disparity_px.copyTo(m.disparity);
-  m.pyramid.build(m.intensity, o.pyramid.levels, o.pyramid.filter);
+  m.pyramid.build_from_base(o.pyramid.levels, o.pyramid.filter);
 }
 
 void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrackerOptions& o) {
   m.current_ref_levels = 0;
   std::swap(m.pyramid, m.prev_pyramid);
-  std::swap(m.depth, m.prev_depth);
   std::swap(m.depth_pyramid, m.prev_depth_pyramid);
   std::swap(m.depth_pyramid_current, m.prev_depth_pyramid_current);
   m.depth_pyramid_current = false;
-  image::to_intensity(f.image, m.intensity_raw);
   if (m.rolling_shutter) {
+    image::to_intensity(f.image, m.intensity_raw);
     // Rolling shutter: rectified with the rotation rate the constant-velocity prior predicts
     // (the last frame's motion); the raw depth stays at hand for a later rectification with the
     // frame's own rate (track_prepared).
@@ -520,9 +518,14 @@ void prepare_frame(DirectTracker::Impl& m, const RgbdFrame& f, const DirectTrack
                               o);
     return;
   }
-  m.undistorter.undistort_intensity(m.intensity_raw, m.intensity);
-  m.undistorter.undistort_depth(f.depth_m, m.depth);
-  m.pyramid.build(m.intensity, o.pyramid.levels, o.pyramid.filter);
+  if (m.undistorter.is_identity()) {
+    image::to_intensity(f.image, m.pyramid.base());
+  } else {
+    image::to_intensity(f.image, m.intensity_raw);
+    m.undistorter.undistort_intensity(m.intensity_raw, m.pyramid.base());
+  }
+  m.undistorter.undistort_depth(f.depth_m, m.depth_pyramid.base());
+  m.pyramid.build_from_base(o.pyramid.levels, o.pyramid.filter);
   if (o.terms.geometric == GeometricTerm::kAlways) m.ensure_depth_pyramid(o);
 }
 

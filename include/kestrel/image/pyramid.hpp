@@ -40,9 +40,15 @@ void downsample_depth(const cv::Mat& in, cv::Mat& out, float max_relative_spread
 
 /// A pyramid of `levels` images; level 0 is the input (copied into the reused buffer).
 /// Buffers are kept across calls: building a pyramid of the same size allocates nothing.
+/// Where level 0 is produced anyway (undistortion, colour conversion), it can be written in
+/// place: fill base(), then build_from_base(), and the copy is saved.
 class IntensityPyramid {
  public:
   void build(const cv::Mat& level0, int levels, PyramidFilter filter);
+  /// Level 0's buffer, to be written (CV_32FC1) before build_from_base().
+  [[nodiscard]] cv::Mat& base();
+  /// Levels 1 .. levels-1 from base().
+  void build_from_base(int levels, PyramidFilter filter);
   [[nodiscard]] int levels() const { return static_cast<int>(levels_.size()); }
   [[nodiscard]] const cv::Mat& level(int l) const { return levels_[static_cast<std::size_t>(l)]; }
 
@@ -54,6 +60,10 @@ class IntensityPyramid {
 class DepthPyramid {
  public:
   void build(const cv::Mat& level0_depth_m, int levels, float max_relative_spread = 0.03F);
+  /// Level 0's buffer (CV_32FC1 metres), to be written before build_from_base().
+  [[nodiscard]] cv::Mat& base();
+  /// Levels 1 .. levels-1 from base().
+  void build_from_base(int levels, float max_relative_spread = 0.03F);
   [[nodiscard]] int levels() const { return static_cast<int>(levels_.size()); }
   [[nodiscard]] const cv::Mat& level(int l) const { return levels_[static_cast<std::size_t>(l)]; }
 
