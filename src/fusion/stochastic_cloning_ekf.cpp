@@ -286,7 +286,7 @@ void StochasticCloningEkf::joseph_update(MatrixXs& P, const Eigen::Matrix<double
                                          const Matrix6d& S) {
   // (I - K H) P (I - K H)^T + K R K^T expands, with H P = (P H^T)^T and H P H^T + R = S, to
   // P - K PHt^T - PHt K^T + K S K^T: the same matrix for any K (an error in K still enters at
-  // second order only), in products of 22x6x22 and 22x6x6 instead of two of 22x22x22.
+  // second order only), in products of 25x6x25 and 25x6x6 instead of two of 25x25x25 (kDim = 25).
   // Row i of A = (K S - PHt) K^T - K PHt^T combines the 6 columns of K and the 6 of PHt (each
   // contiguous: column-major), 12 terms per row.
   const Eigen::Matrix<double, idx::kDim, 6> KS_PHt = K * S - PHt;
