@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/camera_io.hpp"
@@ -41,6 +42,7 @@ struct FuseArgs {
   double vo_sigma_rot_deg = 0.5;
   double imu_noise_inflation = 0.0;  // 0: the sensor file's, or the in-flight default
   bool no_time_offset_state = false;
+  bool extrinsic_rotation_state = false;
 };
 
 // Covariances per VO time stamp: "timestamp v1 .. v6" (diagonal variances) or
@@ -185,6 +187,7 @@ void run_fuse(const FuseArgs& a) {
   options.set_imu_noise(io::load_imu_noise(a.calib_path));  // missing field -> InputError
   if (a.imu_noise_inflation > 0.0) options.imu_noise_inflation = a.imu_noise_inflation;
   if (a.no_time_offset_state) options.estimate_time_offset = false;
+  if (a.extrinsic_rotation_state) options.estimate_extrinsic_rotation = true;
   if (auto T = read_T_body_cam(a.calib_path, a.camera_calib_path)) {
     options.T_body_cam = *T;
   } else {
@@ -380,6 +383,13 @@ void run_fuse(const FuseArgs& a) {
               << " ms (1-sigma "
               << 1e3 * std::sqrt(std::max(0.0, P(fusion::idx::kTd, fusion::idx::kTd))) << " ms"
               << (options.estimate_time_offset ? ", estimated" : ", fixed") << ")\n";
+    if (options.estimate_extrinsic_rotation) {
+      const Eigen::Vector3d sigma =
+          P.diagonal().segment<3>(fusion::idx::kExt).cwiseMax(0.0).cwiseSqrt() * kRadToDeg;
+      std::cout << "odometry-IMU rotation (rotation vector): "
+                << (SO3(engine.filter().state().q_body_odom).log() * kRadToDeg).transpose()
+                << " deg (1-sigma " << sigma.transpose() << " deg, estimated)\n";
+    }
   }
   std::cout << "fused poses: " << fused.size() << " (" << dropout_outputs
             << " flagged vo_dropout), accepted updates: " << engine.counters().updates_accepted
@@ -435,6 +445,9 @@ void add_fuse_command(CLI::App& app) {
   cmd->add_flag("--no-time-offset-state", a->no_time_offset_state,
                 "keep the camera-IMU time offset fixed (time_offset_s of --options) instead of "
                 "estimating it online");
+  cmd->add_flag("--extrinsic-rotation-state", a->extrinsic_rotation_state,
+                "estimate the odometry-IMU rotation online (estimate_extrinsic_rotation; "
+                "docs/fusion.md)");
   cmd->add_option("--vo-sigma-pos", a->vo_sigma_p_m, "odometry sigma without --vo-cov [m]")
       ->capture_default_str()
       ->check(number_in(0.0, 100.0, "a standard deviation in (0, 100] m", true));

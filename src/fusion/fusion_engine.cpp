@@ -65,7 +65,9 @@ std::string FusionOptions::describe() const {
     << " accel_noise=" << noise.accel_noise << " accel_walk=" << noise.accel_walk
     << " imu_noise_inflation=" << imu_noise_inflation << " time_offset=" << time_offset_s
     << "s estimate_time_offset=" << (estimate_time_offset ? "on" : "off")
-    << " sigma_time_offset=" << init_sigma_time_offset_s << " g=" << gravity_m_s2
+    << " sigma_time_offset=" << init_sigma_time_offset_s
+    << " estimate_extrinsic_rotation=" << (estimate_extrinsic_rotation ? "on" : "off")
+    << " sigma_extrinsic_rotation=" << init_sigma_extrinsic_rotation_rad << " g=" << gravity_m_s2
     << " gate_p=" << gate_probability << " dropout=" << dropout_timeout_s
     << "s max_imu_gap=" << max_imu_gap_s << "s accel_range=" << accel_range_m_s2
     << "m/s^2 gyro_range=" << gyro_range_rad_s << "rad/s imu_horizon=" << imu_horizon_s
@@ -92,6 +94,7 @@ void FusionOptions::validate() const {
                      std::to_string(imu_noise_inflation));
   }
   positive(init_sigma_time_offset_s, "init_sigma_time_offset_s");
+  positive(init_sigma_extrinsic_rotation_rad, "init_sigma_extrinsic_rotation_rad");
   if (!(std::abs(time_offset_s) <= 1.0)) {
     throw InputError("time_offset_s: must be within +-1 s, got " + std::to_string(time_offset_s));
   }
@@ -249,8 +252,10 @@ FusionEngine::FusionEngine(FusionOptions options)
 void FusionEngine::initialize(const NominalState& state) {
   NominalState x = state;
   x.time_offset_s = options_.time_offset_s;
-  ekf_.initialize(x, options_.initial_covariance(),
-                  options_.estimate_time_offset ? options_.init_sigma_time_offset_s : 0.0);
+  ekf_.initialize(
+      x, options_.initial_covariance(),
+      options_.estimate_time_offset ? options_.init_sigma_time_offset_s : 0.0,
+      options_.estimate_extrinsic_rotation ? options_.init_sigma_extrinsic_rotation_rad : 0.0);
   initialized_ = true;
   processed_ns_ = std::max(processed_ns_, state.t_ns);
   last_accepted_update_ns_ = state.t_ns;
@@ -523,6 +528,8 @@ FusedState FusionEngine::output(bool at_odometry) const {
   f.sigma = ekf_.covariance().diagonal().head<9>().cwiseMax(0.0).cwiseSqrt();
   f.sigma_gyro_bias = ekf_.covariance().diagonal().segment<3>(idx::kBg).cwiseMax(0.0).cwiseSqrt();
   f.sigma_time_offset_s = std::sqrt(std::max(0.0, ekf_.covariance()(idx::kTd, idx::kTd)));
+  f.sigma_extrinsic_rotation_rad =
+      ekf_.covariance().diagonal().segment<3>(idx::kExt).cwiseMax(0.0).cwiseSqrt();
   f.at_odometry = at_odometry;
   f.flags = sticky_flags_;
   if (ns_to_s(f.t_ns - last_accepted_update_ns_) > options_.dropout_timeout_s) {

@@ -51,6 +51,7 @@ NominalState NominalState::boxplus(const VectorXs& dx) const {
   r.p_clone_world += dx.segment<3>(idx::kPd);
   r.q_world_clone = right_perturb(q_world_clone, dx.segment<3>(idx::kThetaD));
   r.time_offset_s += dx(idx::kTd);
+  r.q_body_odom = right_perturb(q_body_odom, dx.segment<3>(idx::kExt));
   return r;
 }
 
@@ -64,6 +65,7 @@ VectorXs NominalState::boxminus(const NominalState& o) const {
   e.segment<3>(idx::kPd) = p_clone_world - o.p_clone_world;
   e.segment<3>(idx::kThetaD) = log_q(o.q_world_clone.conjugate() * q_world_clone);
   e(idx::kTd) = time_offset_s - o.time_offset_s;
+  e.segment<3>(idx::kExt) = log_q(o.q_body_odom.conjugate() * q_body_odom);
   return e;
 }
 
@@ -71,20 +73,26 @@ bool NominalState::all_finite() const {
   return p_world.allFinite() && q_world_body.coeffs().allFinite() && v_world.allFinite() &&
          gyro_bias_rad_s.allFinite() && accel_bias_m_s2.allFinite() && p_clone_world.allFinite() &&
          q_world_clone.coeffs().allFinite() && std::isfinite(time_offset_s) &&
-         omega_body.allFinite() && v_clone_body.allFinite() && omega_clone_body.allFinite();
+         q_body_odom.coeffs().allFinite() && omega_body.allFinite() && v_clone_body.allFinite() &&
+         omega_clone_body.allFinite();
 }
 
 void StochasticCloningEkf::initialize(const NominalState& state, const Matrix15d& covariance,
-                                      double time_offset_sigma_s) {
-  if (!state.all_finite() || !covariance.allFinite() || !std::isfinite(time_offset_sigma_s)) {
+                                      double time_offset_sigma_s,
+                                      double extrinsic_rotation_sigma_rad) {
+  if (!state.all_finite() || !covariance.allFinite() || !std::isfinite(time_offset_sigma_s) ||
+      !std::isfinite(extrinsic_rotation_sigma_rad)) {
     throw std::invalid_argument("StochasticCloningEkf::initialize: non-finite state or covariance");
   }
   x_ = state;
   x_.q_world_body.normalize();
+  x_.q_body_odom.normalize();
   before_update_.reset();
   P_.setZero();
   P_.topLeftCorner<idx::kCore, idx::kCore>() = 0.5 * (covariance + covariance.transpose());
   P_(idx::kTd, idx::kTd) = time_offset_sigma_s * time_offset_sigma_s;
+  P_.block<3, 3>(idx::kExt, idx::kExt) =
+      Matrix3d::Identity() * extrinsic_rotation_sigma_rad * extrinsic_rotation_sigma_rad;
   clone();
 }
 
@@ -278,7 +286,7 @@ void StochasticCloningEkf::joseph_update(MatrixXs& P, const Eigen::Matrix<double
                                          const Matrix6d& S) {
   // (I - K H) P (I - K H)^T + K R K^T expands, with H P = (P H^T)^T and H P H^T + R = S, to
   // P - K PHt^T - PHt K^T + K S K^T: the same matrix for any K (an error in K still enters at
-  // second order only), in products of 22x6x22 and 22x6x6 instead of two of 22x22x22.
+  // second order only), in products of 25x6x25 and 25x6x6 instead of two of 25x25x25 (kDim = 25).
   // Row i of A = (K S - PHt) K^T - K PHt^T combines the 6 columns of K and the 6 of PHt (each
   // contiguous: column-major), 12 terms per row.
   const Eigen::Matrix<double, idx::kDim, 6> KS_PHt = K * S - PHt;
@@ -332,7 +340,8 @@ ShiftedFrames shifted_frames(const NominalState& x) {
 
 SE3 StochasticCloningEkf::predict_relative_pose(const NominalState& x) {
   const ShiftedFrames f = shifted_frames(x);
-  return SE3(SO3::from_matrix(f.R_rel), f.p_rel);
+  const Matrix3d D = x.q_body_odom.toRotationMatrix();
+  return SE3(SO3::from_matrix(D.transpose() * f.R_rel * D), D.transpose() * f.p_rel);
 }
 
 Vector6d StochasticCloningEkf::residual(const SE3& measured, const SE3& predicted) {
@@ -364,6 +373,16 @@ Matrix6xs StochasticCloningEkf::measurement_jacobian(const NominalState& x) {
   H.block<3, 3>(3, idx::kTheta) = f.E.transpose();
   H.block<3, 3>(3, idx::kThetaD) = -f.R_rel.transpose() * f.Ed.transpose();
   H.block<3, 1>(3, idx::kTd) = x.omega_body - f.R_rel.transpose() * x.omega_clone_body;
+  // The odometry-IMU rotation: h = (D^T R_rel D, D^T p_rel). A perturbation of the IMU's motion
+  // moves h by D^T of it (R_rel exp(e) conjugated is R_h exp(D^T e)); with D = D_hat exp(dphi),
+  // D^T p_rel = p_h + [p_h]x dphi and R_h^T exp(-dphi) R_h exp(dphi) = exp((I - R_h^T) dphi).
+  const Matrix3d D = x.q_body_odom.toRotationMatrix();
+  const Vector3d p_h = D.transpose() * f.p_rel;
+  const Matrix3d R_h = D.transpose() * f.R_rel * D;
+  H.topRows<3>() = D.transpose() * H.topRows<3>();
+  H.bottomRows<3>() = D.transpose() * H.bottomRows<3>();
+  H.block<3, 3>(0, idx::kExt) = SO3::hat(p_h);
+  H.block<3, 3>(3, idx::kExt) = Matrix3d::Identity() - R_h.transpose();
   return H;
 }
 

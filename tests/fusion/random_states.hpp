@@ -11,8 +11,10 @@ namespace kestrel::fusion::random_states {
 /// A random state: positions of metres, any attitudes, biases of their usual size. With
 /// `offset_and_rates`, also a camera-IMU time offset of tens of ms and fast rates (1.5 rad/s per
 /// axis) at the current and the clone time, so that frames shifted by the offset differ visibly
-/// from unshifted ones; the draws of the other fields are the same either way.
-inline NominalState random_state(std::mt19937_64& rng, bool offset_and_rates = false) {
+/// from unshifted ones; the draws of the other fields are the same either way. With
+/// `extrinsic`, also an odometry-IMU rotation of ~17 deg per axis (drawn last).
+inline NominalState random_state(std::mt19937_64& rng, bool offset_and_rates = false,
+                                 bool extrinsic = false) {
   std::normal_distribution<double> n(0.0, 1.0);
   auto v3 = [&](double s) {
     // One draw per statement: the order of draws is fixed (it is not within one call).
@@ -35,6 +37,7 @@ inline NominalState random_state(std::mt19937_64& rng, bool offset_and_rates = f
     x.v_clone_body = v3(1.0);
     x.omega_clone_body = v3(1.5);
   }
+  if (extrinsic) x.q_body_odom = SO3::exp(v3(0.3)).unit_quaternion();
   return x;
 }
 

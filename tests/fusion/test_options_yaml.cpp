@@ -38,6 +38,8 @@ TEST(FusionOptionsYaml, PrintedFileLoads) {
   o.gate_probability = 0.99;
   o.noise.accel_walk = 2e-3;
   o.first_estimate_jacobians = false;
+  o.estimate_extrinsic_rotation = true;
+  o.init_sigma_extrinsic_rotation_rad = 0.01;
   std::ofstream(dir / "o.yaml") << o.to_yaml();
   EXPECT_EQ(FusionOptions::load_yaml(dir / "o.yaml").to_yaml(), o.to_yaml());
   std::filesystem::remove_all(dir);

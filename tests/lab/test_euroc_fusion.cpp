@@ -297,5 +297,32 @@ TEST(FusionEuroc, DefaultsMeetTheTargetsOverTwentyDraws) {
   EXPECT_GE(b.gap_samples_inside_3sigma, 0.95 * b.gap_samples);
 }
 
+// What V1_01's median misses 0.4 by (docs/fusion.md, "V1_01's misalignment and the online
+// odometry-IMU rotation"): its odometry frame is turned against the IMU. The IMU's readings
+// rotated by (-1.5, 0.5, -1.25) deg bring V1_01's median ratio to 0.353 over 20 draws (0.428
+// without) and make V1_02's worse (0.424), and the online rotation state finds the tilt part of
+// that rotation on V1_01 (seed 1: R_D z 1.33 +- 0.21 deg; the IMU rotated by delta moves R_D by
+// +delta). Measured figures; bounds with a margin.
+TEST(FusionEuroc, V1_01OdometryFrameIsTurnedAgainstTheImu) {
+#if !defined(NDEBUG) || defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "20 noise draws of two EuRoC runs: release builds without sanitizers only";
+#endif
+  KESTREL_REQUIRE_DATA("euroc/V1_02_medium_imu_groundtruth/mav0/gt0/data.csv");
+  KESTREL_REQUIRE_DATA("euroc/V1_01_easy_part1/mav0/imu0/data.csv");
+  fusion::FusionOptions o = wide_bias_prior();
+  EurocExperimentOptions turned;
+  turned.imu_rotation_deg = Eigen::Vector3d(-1.5, 0.5, -1.25);
+  const auto [a, b] = over_draws(o, turned, 20);
+  std::cout << format_summary(a) << format_summary(b);
+  EXPECT_LE(b.ratio.median, 0.37);  // V1_01: 0.353
+  EXPECT_GE(a.ratio.median, 0.38);  // V1_02: 0.424
+  o.estimate_extrinsic_rotation = true;
+  const auto r = run_v1_01(test::shared_data_dir() / "euroc/V1_01_easy_part1", o, {});
+  std::cout << format_result(r);
+  EXPECT_GT(r.extrinsic_rotation_final_deg.z(), 0.9);
+  EXPECT_LT(r.extrinsic_rotation_final_deg.z(), 1.9);
+  EXPECT_GT(r.extrinsic_rotation_final_deg.z(), 3.0 * r.extrinsic_rotation_sigma_final_deg.z());
+}
+
 }  // namespace
 }  // namespace kestrel::lab

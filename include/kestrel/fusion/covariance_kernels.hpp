@@ -1,5 +1,5 @@
 // The filter's covariance products as sums of scaled rows: the propagation F P F^T with the
-// transition's sparse 3x3 blocks (thesis eq. 4.6) and the Joseph update's 22x6 products (thesis
+// transition's sparse 3x3 blocks (thesis eq. 4.6) and the Joseph update's 25x6 products (thesis
 // eq. 4.8) each build an output row as a short linear combination of contiguous input rows. One
 // portable SIMD kernel (Google Highway, the best target of the CPU chosen at run time) does that,
 // with one scalar reference (*_scalar) that the tests hold it to.

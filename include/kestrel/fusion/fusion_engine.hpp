@@ -43,6 +43,15 @@ struct FusionOptions {
   double time_offset_s = 0.0;
   bool estimate_time_offset = true;
   double init_sigma_time_offset_s = 0.02;
+  /// Odometry-IMU rotation (the rotation of T_body_cam, and of any frame the odometry's poses
+  /// are referenced to): estimated online as a 3-dof correction q_body_odom with the prior std
+  /// init_sigma_extrinsic_rotation_rad per axis (docs/fusion.md, "V1_01's misalignment and the
+  /// online odometry-IMU rotation"). Off (the default: not chosen on V1_01's reference, as
+  /// that section says): the rotation of T_body_cam is taken as exact. Prior 2 deg: a CAD or
+  /// hand-measured mount is good to a degree or two.
+  bool estimate_extrinsic_rotation = false;
+  double init_sigma_extrinsic_rotation_rad = 0.0349;
+
   double gravity_m_s2 = 9.81;  ///< world z is up; g = (0, 0, -gravity)
   /// Odometry camera in the body (IMU) frame, EuRoC T_BS of cam0 (identity if the odometry
   /// already reports body poses).
@@ -106,6 +115,8 @@ struct FusionOptions {
     v("time_offset_s", time_offset_s);
     v("estimate_time_offset", estimate_time_offset);
     v("init_sigma_time_offset_s", init_sigma_time_offset_s);
+    v("estimate_extrinsic_rotation", estimate_extrinsic_rotation);
+    v("init_sigma_extrinsic_rotation_rad", init_sigma_extrinsic_rotation_rad);
     v("gravity_m_s2", gravity_m_s2);
     v("gate_probability", gate_probability);
     v("dropout_timeout_s", dropout_timeout_s);
@@ -164,6 +175,9 @@ struct FusedState {
   Eigen::Matrix<double, 9, 1> sigma;                          ///< std of [p, theta, v]
   Eigen::Vector3d sigma_gyro_bias = Eigen::Vector3d::Zero();  ///< std of b_g
   double sigma_time_offset_s = 0.0;                           ///< std of t_d
+
+  /// std of dphi, the odometry-IMU rotation's error (0 when it is not estimated)
+  Eigen::Vector3d sigma_extrinsic_rotation_rad = Eigen::Vector3d::Zero();
   std::uint32_t flags = kFlagNone;
   bool at_odometry = false;  ///< emitted at an odometry time stamp (after its update)
 };

@@ -14,10 +14,12 @@
 
 namespace kestrel::fusion {
 
-/// Error-state layout: [dp, dtheta, dv, db_g, db_a, dp_d, dtheta_d, dt_d], 22 entries. Attitude
-/// errors are local (body frame), q = q_hat * exp(dtheta) (thesis eqs. 4.3-4.4); dt_d is the
-/// error of the camera-IMU time offset (the thesis' 21 entries plus the offset of OpenVINS and
-/// VINS-Fusion; Li & Mourikis, "Online temporal calibration", IJRR 2014).
+/// Error-state layout: [dp, dtheta, dv, db_g, db_a, dp_d, dtheta_d, dt_d, dphi], 25 entries.
+/// Attitude errors are local (body frame), q = q_hat * exp(dtheta) (thesis eqs. 4.3-4.4); dt_d
+/// is the error of the camera-IMU time offset (the thesis' 21 entries plus the offset of
+/// OpenVINS and VINS-Fusion; Li & Mourikis, "Online temporal calibration", IJRR 2014); dphi the
+/// local error of the odometry-IMU rotation q_body_odom (OpenVINS' calib_cam_extrinsics, its
+/// rotation part; Li & Mourikis IJRR 2013/2014).
 namespace idx {
 inline constexpr int kP = 0;
 inline constexpr int kTheta = 3;
@@ -27,8 +29,9 @@ inline constexpr int kBa = 12;
 inline constexpr int kPd = 15;
 inline constexpr int kThetaD = 18;
 inline constexpr int kTd = 21;    ///< camera-IMU time offset t_d [s]
+inline constexpr int kExt = 22;   ///< odometry-IMU rotation error dphi [rad], body frame
 inline constexpr int kCore = 15;  ///< entries of the current (non-cloned) state
-inline constexpr int kDim = 22;
+inline constexpr int kDim = 25;
 }  // namespace idx
 
 using Vector15d = Eigen::Matrix<double, idx::kCore, 1>;
@@ -52,6 +55,11 @@ struct NominalState {
   /// Camera-IMU time offset: a frame stamped t (odometry clock) was taken at IMU time t + t_d
   /// (OpenVINS' convention).
   double time_offset_s = 0.0;
+  /// Odometry-IMU rotation R_D: the frame the odometry's body motions are expressed in (the
+  /// IMU frame as T_body_cam's rotation says it), in the IMU frame. The odometry's motion is
+  /// that of the IMU conjugated by it, R_D^T T_clone_body R_D; identity when T_body_cam is
+  /// exact. Its error is local, R_D = R_D_hat exp(dphi).
+  Eigen::Quaterniond q_body_odom = Eigen::Quaterniond::Identity();
   /// Not states, but what the time offset moves the poses along (first order): the body rate
   /// of the last IMU step (bias removed) and, at the clone, its body-frame velocity and rate.
   /// The clone's velocity is kept in the clone's body frame, so that a yaw of the whole
@@ -121,9 +129,10 @@ class StochasticCloningEkf {
   /// Sets the state and the 15x15 covariance of the current state; the clone is set to the
   /// current pose with its covariance (thesis: "at the beginning, we fix p_d = p"). The time
   /// offset starts at state.time_offset_s with std time_offset_sigma_s, uncorrelated; 0 keeps
-  /// it fixed (not estimated: its gain row stays zero).
+  /// it fixed (not estimated: its gain row stays zero). The odometry-IMU rotation likewise
+  /// starts at state.q_body_odom with std extrinsic_rotation_sigma_rad per axis (0: fixed).
   void initialize(const NominalState& state, const Matrix15d& covariance,
-                  double time_offset_sigma_s = 0.0);
+                  double time_offset_sigma_s = 0.0, double extrinsic_rotation_sigma_rad = 0.0);
 
   /// Propagates over dt_s > 0 with one reading (thesis eqs. 4.2, 4.5, 4.6; the transition
   /// is the exact Jacobian of the discrete step, so it equals I + cF dt to first order).
@@ -176,8 +185,9 @@ class StochasticCloningEkf {
   /// P - K (PH^T)^T - PH^T K^T + (K S) K^T, algebraically equal for any gain K.
   static void joseph_update(MatrixXs& P, const Eigen::Matrix<double, idx::kDim, 6>& K,
                             const Eigen::Matrix<double, idx::kDim, 6>& PHt, const Matrix6d& S);
-  /// h(x) = T_clone_body = T_world_clone^-1 T_world_body (thesis eq. 4.7), with both poses
-  /// moved to the frames' IMU times by the time offset (first order: p + v t_d, R exp(w t_d)).
+  /// h(x) = R_D^T T_clone_body R_D with T_clone_body = T_world_clone^-1 T_world_body (thesis
+  /// eq. 4.7), both poses moved to the frames' IMU times by the time offset (first order:
+  /// p + v t_d, R exp(w t_d)), R_D = q_body_odom (identity: the thesis' h).
   static SE3 predict_relative_pose(const NominalState& x);
   /// Residual [p_meas - p_pred, log(R_pred^T R_meas)] (attitude in the body frame).
   static Vector6d residual(const SE3& measured, const SE3& predicted);

@@ -46,6 +46,14 @@ struct EurocExperimentOptions {
   /// (ground_truth_imu.hpp). The odometry noise is drawn as with the real IMU (the frames start
   /// one ground-truth sample later: the synthetic IMU begins at the first one).
   bool synthetic_imu = false;
+  /// Diagnostics (docs/fusion.md, "V1_01's misalignment and the online odometry-IMU rotation"): the
+  /// IMU's readings (gyro and accelerometer) rotated by exp(imu_rotation_deg) before fusing, each
+  /// gyro axis scaled by gyro_scale, and the ground truth's world frame turned by
+  /// exp(world_rotation_deg) (T_w_b -> R T_w_b; the relative poses are unchanged, the start and the
+  /// score are not).
+  Eigen::Vector3d imu_rotation_deg = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_scale = Eigen::Vector3d::Ones();
+  Eigen::Vector3d world_rotation_deg = Eigen::Vector3d::Zero();
 };
 
 /// Ground truth pose (body) with optional velocity and gyro bias at one time.
@@ -76,6 +84,10 @@ struct EurocExperimentResult {
   Eigen::Vector3d gyro_bias_final = Eigen::Vector3d::Zero();
   /// The camera-IMU time offset the filter ends with, and its 1-sigma [s].
   double time_offset_final_s = 0.0, time_offset_sigma_final_s = 0.0;
+  /// The odometry-IMU rotation q_body_odom the filter ends with (rotation vector) and its
+  /// 1-sigma per axis [deg] (zero when it is not estimated).
+  Eigen::Vector3d extrinsic_rotation_final_deg = Eigen::Vector3d::Zero();
+  Eigen::Vector3d extrinsic_rotation_sigma_final_deg = Eigen::Vector3d::Zero();
   /// Gap run: largest position error inside the gap, its growth over the gap, and the
   /// largest error over the whole run with the gap.
   double gap_max_error_m = 0.0;
