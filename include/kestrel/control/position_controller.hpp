@@ -37,6 +37,17 @@ struct PositionControllerOptions {
   /// Covers that deficit (0.28 g = 2.75 m/s^2) with room for a downdraft.
   double integral_limit_z_m_s2 = 4.0;
   double max_accel_xy_m_s2 = 5.0;
+  /// The learnt hover thrust as a thrust scale (docs/flight.md, "World"): a heavier vehicle or
+  /// weaker rotors than mass_kg and the flight controller's throttle scale say are a shortfall
+  /// of every force the rotors make, not only of the vertical one. The z integral (and the
+  /// observer's d_z) learn it as the hover acceleration h = g + I_z - d_z that the nominal model
+  /// must command to hold the weight; with this switch the whole commanded force is scaled by
+  /// h / g, F = m (h / g) (a + g e_z) with a the command without those vertical terms, so that
+  /// the tilt asks for the horizontal acceleration the loop designed. Without it the tilt is
+  /// a_xy / h instead of a_xy / g: with mass +15 % and thrust -10 % (h = 1.28 g) every horizontal
+  /// gain is 22 % low and the z loop's feedback gains too. In hover on the nominal vehicle
+  /// h = g and nothing changes.
+  bool scale_thrust_by_hover_estimate = true;
   // --- acceleration disturbance observer (docs/flight.md, "World") ---
   /// Estimates the unmodelled acceleration d = R (f_imu - (T_prev / mass_kg) e_z + D(v_body))
   /// (the IMU's specific force in the world minus what the previous thrust command and the
@@ -102,6 +113,7 @@ struct PositionControllerOptions {
     v("integral_limit_xy_m_s2", integral_limit_xy_m_s2);
     v("integral_limit_z_m_s2", integral_limit_z_m_s2);
     v("max_accel_xy_m_s2", max_accel_xy_m_s2);
+    v("scale_thrust_by_hover_estimate", scale_thrust_by_hover_estimate);
     v("disturbance_observer", disturbance_observer);
     v("observer_time_constant_xy_s", observer_time_constant_xy_s);
     v("observer_time_constant_z_s", observer_time_constant_z_s);
@@ -154,11 +166,14 @@ class PositionController {
  private:
   /// Updates the disturbance estimate from the estimate's specific force (see the options).
   void observe(const VehicleStateEstimate& estimate, double dt);
+  /// h / g with h = g + I_z - d_z the learnt hover acceleration; 1 when the scale is off.
+  [[nodiscard]] double thrust_scale_of_hover() const;
 
   PositionControllerOptions options_;
   Eigen::Vector3d integral_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d disturbance_ = Eigen::Vector3d::Zero();
   std::optional<double> last_thrust_N_;  // the previous step's thrust command
+  double last_thrust_scale_ = 1.0;       // and the thrust scale it was made with
   std::optional<TimeNs> last_t_ns_;
   double last_roll_ = 0.0;
   double last_pitch_ = 0.0;
