@@ -105,6 +105,7 @@ void PositionController::reset() {
   integral_.setZero();
   disturbance_.setZero();
   last_thrust_N_.reset();
+  last_thrust_scale_ = 1.0;
   last_t_ns_.reset();
   last_roll_ = 0.0;
   last_pitch_ = 0.0;
@@ -112,6 +113,14 @@ void PositionController::reset() {
 
 double PositionController::hover_thrust_estimate_N() const {
   return options_.mass_kg * (kGravity + integral_.z() - disturbance_.z());
+}
+
+double PositionController::thrust_scale_of_hover() const {
+  if (!options_.scale_thrust_by_hover_estimate) return 1.0;
+  // Bounded as the integral and observer clamps bound h (4 m/s^2 either way: 0.59-1.41); the
+  // floor only guards a degenerate option set.
+  const double h = kGravity + integral_.z() - disturbance_.z();
+  return std::max(h, 0.25 * kGravity) / kGravity;
 }
 
 void PositionController::observe(const VehicleStateEstimate& est, double dt) {
@@ -133,9 +142,17 @@ void PositionController::observe(const VehicleStateEstimate& est, double dt) {
       drag_of(0, o.observer_drag_xy_per_s, o.observer_quadratic_drag_xy_per_m),
       drag_of(1, o.observer_drag_xy_per_s, o.observer_quadratic_drag_xy_per_m),
       drag_of(2, o.observer_drag_z_per_s, o.observer_quadratic_drag_z_per_m));
+  // With the thrust scale the nominal rotors give (T / m) / s, s = h / g the scale the previous
+  // command used; the hover term (g - h) e_z keeps d_z the shortfall the scale is made of (at
+  // hover f = g e_z, T / m = h: d_z = g - h as without the scale). A tilted vehicle then shows
+  // no horizontal d_z sin(theta): the scale already gives the tilt its acceleration (counted
+  // twice it raised the horizontal gain by 1 / (2 - h / g)). Left: an external vertical force
+  // reads as a shortfall and is scaled with the thrust (a horizontal error d_z tan(theta)).
+  const double s = last_thrust_scale_;
   const Eigen::Vector3d raw =
-      est.R_world_body *
-      (*est.specific_force_body - Eigen::Vector3d(0.0, 0.0, *last_thrust_N_ / o.mass_kg) + drag);
+      est.R_world_body * (*est.specific_force_body -
+                          Eigen::Vector3d(0.0, 0.0, *last_thrust_N_ / (o.mass_kg * s)) + drag) +
+      Eigen::Vector3d(0.0, 0.0, kGravity * (1.0 - s));
   // First-order low-pass, exact discretisation of d' = (raw - d) / tau.
   const double a_xy = 1.0 - std::exp(-dt / o.observer_time_constant_xy_s);
   const double a_z = 1.0 - std::exp(-dt / o.observer_time_constant_z_s);
@@ -180,8 +197,14 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
   const bool accel_limited = limit_horizontal(a_cmd, o.max_accel_xy_m_s2);
 
   // Thrust vector with gravity feed-forward, F = m (a + g e_z), then tilt and thrust limits:
-  // the vertical part has priority, the horizontal part is scaled into the tilt cone.
-  Eigen::Vector3d F = o.mass_kg * (a_cmd + Eigen::Vector3d(0.0, 0.0, kGravity));
+  // the vertical part has priority, the horizontal part is scaled into the tilt cone. With the
+  // thrust scale, the learnt hover acceleration h = g + I_z - d_z is a shortfall of the rotors'
+  // force: F = m (h / g) (a' + g e_z), a' the command without I_z - d_z, whose vertical part is
+  // m (h + (h / g) a'_z), the same as before up to the feedback's scale.
+  const double thrust_scale = thrust_scale_of_hover();
+  Eigen::Vector3d a_shaped = a_cmd;
+  if (o.scale_thrust_by_hover_estimate) a_shaped.z() -= integral_.z() - disturbance_.z();
+  Eigen::Vector3d F = o.mass_kg * thrust_scale * (a_shaped + Eigen::Vector3d(0.0, 0.0, kGravity));
   if (F.z() < o.min_thrust_N) {
     F.z() = o.min_thrust_N;
     out.thrust_limited = true;
@@ -200,7 +223,12 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
     thrust = o.min_thrust_N;
     out.thrust_limited = true;
   }
-  out.acceleration_command_world = F / o.mass_kg - Eigen::Vector3d(0.0, 0.0, kGravity);
+  // What the vehicle is asked for on the learnt thrust scale (the nominal model's when off).
+  out.acceleration_command_world =
+      F / (o.mass_kg * thrust_scale) - Eigen::Vector3d(0.0, 0.0, kGravity);
+  if (o.scale_thrust_by_hover_estimate) {
+    out.acceleration_command_world.z() += integral_.z() - disturbance_.z();
+  }
 
   // Anti-windup: integrate only while the output is not saturated in the error's direction
   // (conditional integration), and clamp. With the observer the clamp holds the sum of the
@@ -251,6 +279,7 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
   out.command.yaw_rate_rad_s = std::clamp(yaw_rate, -max_yaw_rate, max_yaw_rate);
   out.command.thrust_N = thrust;
   last_thrust_N_ = thrust;
+  last_thrust_scale_ = thrust_scale;
   return out;
 }
 

@@ -17,7 +17,8 @@ namespace kestrel::control {
 struct PositionControllerOptions {
   double mass_kg = 1.2;  ///< the vehicle's mass (thrust = mass * acceleration)
   // --- position loop (P): velocity command per metre of error ---
-  double position_gain_xy = 1.4;  ///< 1/s
+  /// 1/s. With the velocity loop's k_v = 3 and k_i = 5 below, 1.0 (docs/flight.md, "World").
+  double position_gain_xy = 1.0;
   double position_gain_z = 1.5;   ///< 1/s
   double max_speed_xy_m_s = 2.0;  ///< horizontal velocity command limit
   double max_speed_z_m_s = 1.0;   ///< vertical velocity command limit
@@ -25,11 +26,20 @@ struct PositionControllerOptions {
   double velocity_gain_xy = 3.0;  ///< 1/s
   double velocity_gain_z = 4.0;   ///< 1/s
   /// The integral is the controller's disturbance estimate (wind, a heavier or weaker
-  /// vehicle than mass_kg says). With k_p = 1.4, k_v = 3 its slowest closed-loop pole is at
-  /// -0.59 /s (s^3 + k_v s^2 + (k_p k_v + k_i) s + k_p k_i); 0.8 put it at -0.26 /s, a 4 s
-  /// time constant that left a step of wind 12 cm off after 4 s (docs/flight.md, "World").
-  /// 2.5 would be faster still but overshoots a 1 m step by more than 10 cm.
-  double velocity_integral_gain_xy = 2.0;  ///< 1/s^2
+  /// vehicle than mass_kg says) and, as the integral of k_p e_p - v, also a position spring
+  /// k_i e_p: the loop's stiffness against slow disturbances is k_p k_i (position error per
+  /// m/s^2 of disturbance ~ s / (k_p k_i) well below the loop's bandwidth). On perfect attitude
+  /// the poles are the roots of s^3 + k_v s^2 + (k_p k_v + k_i) s + k_p k_i. k_v = 3 stays, so
+  /// the tilt noise the estimate's 1-2 Hz velocity error causes stays (3.0 per m/s at 1.5 Hz).
+  /// Chosen on a linear model of the loop with the flight controller's attitude loop
+  /// (omega_n = sqrt(7 * 22) = 12.4 rad/s, zeta 0.89), the realistic motor lag (45 ms) and
+  /// 7.5 ms of delay, as the k_p, k_i with the least Dryden gust response (docs/flight.md,
+  /// "World": u and v gusts 0.59 m/s, 15 s correlation time) that neither overshoot a 1 m step
+  /// more nor have less gain margin than the old k_p = 1.4, k_i = 2 (9.4 %; margin: the
+  /// factor on k_v and k_i at which the model's step response diverges, 2.7x). k_p = 1.0,
+  /// k_i = 5: poles -0.80 and -1.10 +- 2.24j (old: -0.59, -1.21 +- 1.83j), no overshoot, 2.9x,
+  /// 18 % less gust response (k_p 0.8-1.1 with k_i 5-6 are within 1 % of it).
+  double velocity_integral_gain_xy = 5.0;  ///< 1/s^2
   /// Learns the hover thrust: fast enough to catch a 28 % thrust deficit (mass +15 %, thrust
   /// constant -10 %) in about 2 s.
   double velocity_integral_gain_z = 6.0;  ///< 1/s^2
@@ -37,6 +47,17 @@ struct PositionControllerOptions {
   /// Covers that deficit (0.28 g = 2.75 m/s^2) with room for a downdraft.
   double integral_limit_z_m_s2 = 4.0;
   double max_accel_xy_m_s2 = 5.0;
+  /// The learnt hover thrust as a thrust scale (docs/flight.md, "World"): a heavier vehicle or
+  /// weaker rotors than mass_kg and the flight controller's throttle scale say are a shortfall
+  /// of every force the rotors make, not only of the vertical one. The z integral (and the
+  /// observer's d_z) learn it as the hover acceleration h = g + I_z - d_z that the nominal model
+  /// must command to hold the weight; with this switch the whole commanded force is scaled by
+  /// h / g, F = m (h / g) (a + g e_z) with a the command without those vertical terms, so that
+  /// the tilt asks for the horizontal acceleration the loop designed. Without it the tilt is
+  /// a_xy / h instead of a_xy / g: with mass +15 % and thrust -10 % (h = 1.28 g) every horizontal
+  /// gain is 22 % low and the z loop's feedback gains too. In hover on the nominal vehicle
+  /// h = g and nothing changes.
+  bool scale_thrust_by_hover_estimate = true;
   // --- acceleration disturbance observer (docs/flight.md, "World") ---
   /// Estimates the unmodelled acceleration d = R (f_imu - (T_prev / mass_kg) e_z + D(v_body))
   /// (the IMU's specific force in the world minus what the previous thrust command and the
@@ -102,6 +123,7 @@ struct PositionControllerOptions {
     v("integral_limit_xy_m_s2", integral_limit_xy_m_s2);
     v("integral_limit_z_m_s2", integral_limit_z_m_s2);
     v("max_accel_xy_m_s2", max_accel_xy_m_s2);
+    v("scale_thrust_by_hover_estimate", scale_thrust_by_hover_estimate);
     v("disturbance_observer", disturbance_observer);
     v("observer_time_constant_xy_s", observer_time_constant_xy_s);
     v("observer_time_constant_z_s", observer_time_constant_z_s);
@@ -154,11 +176,14 @@ class PositionController {
  private:
   /// Updates the disturbance estimate from the estimate's specific force (see the options).
   void observe(const VehicleStateEstimate& estimate, double dt);
+  /// h / g with h = g + I_z - d_z the learnt hover acceleration; 1 when the scale is off.
+  [[nodiscard]] double thrust_scale_of_hover() const;
 
   PositionControllerOptions options_;
   Eigen::Vector3d integral_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d disturbance_ = Eigen::Vector3d::Zero();
   std::optional<double> last_thrust_N_;  // the previous step's thrust command
+  double last_thrust_scale_ = 1.0;       // and the thrust scale it was made with
   std::optional<TimeNs> last_t_ns_;
   double last_roll_ = 0.0;
   double last_pitch_ = 0.0;
