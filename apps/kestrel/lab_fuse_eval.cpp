@@ -291,13 +291,16 @@ void add_fuse_eval_command(CLI::App& lab) {
   cmd->add_option("--imu-rotation-deg", a->imu_rotation_deg,
                   "diagnostic: rotate the IMU's readings (gyro and accelerometer) by this "
                   "rotation vector [deg] before fusing")
-      ->expected(3);
+      ->expected(3)
+      ->check(number_in(-30.0, 30.0, "an angle in [-30, 30] deg per component"));
   cmd->add_option("--gyro-scale", a->gyro_scale,
                   "diagnostic: scale the gyro's x y z readings by these factors")
-      ->expected(3);
+      ->expected(3)
+      ->check(number_in(0.5, 2.0, "a factor in [0.5, 2]"));
   cmd->add_option("--world-rotation-deg", a->world_rotation_deg,
                   "diagnostic: turn the ground truth's world frame by this rotation vector [deg]")
-      ->expected(3);
+      ->expected(3)
+      ->check(number_in(-30.0, 30.0, "an angle in [-30, 30] deg per component"));
   cmd->add_option("--only", a->only, "run only this sequence (v1_02 or v1_01)")
       ->check(CLI::IsMember({"v1_02", "v1_01"}));
   cmd->callback([a] { run_fuse_eval(*a); });

@@ -95,6 +95,10 @@ const std::map<std::string, std::string>& good_values_without_default() {
       {"kestrel fly --vo-off-for", "2"},
       {"kestrel fuse --imu-noise-inflation", "15"},
       {"kestrel lab fuse-eval --time-offset-ms", "15"},
+      {"kestrel lab fuse-eval --extrinsic-sigma-deg", "2"},
+      {"kestrel lab fuse-eval --imu-rotation-deg", "-1.5"},
+      {"kestrel lab fuse-eval --gyro-scale", "1.01"},
+      {"kestrel lab fuse-eval --world-rotation-deg", "0.5"},
   };
   return values;
 }
