@@ -329,9 +329,9 @@ struct TrackerAccess {
     const auto padded = static_cast<std::size_t>(pad_to_lanes(n));
     reset_points(L, n, padded);
     m.depth_scratch.clear();
-    const PointSource src{
-        img, m.gx[level], m.gy[level],
-        dep, cam,         disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{}};
+    const DisparitySpaceCamera dcam =
+        disp ? DisparitySpaceCamera::at_level(m.rig, l) : DisparitySpaceCamera{};
+    const PointSource src{img, m.gx[level], m.gy[level], dep, cam, dcam};
     for (int i = 0; i < n; ++i) add_point(m, o, src, m.selected[static_cast<std::size_t>(i)], i, L);
     if (!m.depth_scratch.empty()) {
       const auto count = static_cast<int>(m.depth_scratch.size());
