@@ -245,7 +245,7 @@ int keep_bucket_of_kth(float* v, int n, int& k, int shift) {
 
 // Radix selection: non-negative IEEE-754 floats order like their bits read as unsigned integers,
 // so the k-th value is found digit by digit from the top: the 8 exponent bits with the top 3 of
-// the mantissa (residuals span few octaves: the exponent alone would keep a third of them), then
+// the mantissa (residuals span few octaves: the exponent alone would split them little), then
 // 8, 8 and the last 4 mantissa bits. Each pass counts the candidates' digits and keeps the
 // bucket holding the k-th: no comparison the branch predictor has to guess, where nth_element on
 // the residuals of real frames mispredicts its way to ~6-10 ns a value.
