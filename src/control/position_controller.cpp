@@ -112,14 +112,18 @@ void PositionController::reset() {
 }
 
 double PositionController::hover_thrust_estimate_N() const {
-  return options_.mass_kg * (kGravity + integral_.z() - disturbance_.z());
+  return options_.mass_kg * hover_acceleration();
+}
+
+double PositionController::hover_acceleration() const {
+  return kGravity + integral_.z() - disturbance_.z();
 }
 
 double PositionController::thrust_scale_of_hover() const {
   if (!options_.scale_thrust_by_hover_estimate) return 1.0;
   // Bounded as the integral and observer clamps bound h (4 m/s^2 either way: 0.59-1.41); the
   // floor only guards a degenerate option set.
-  const double h = kGravity + integral_.z() - disturbance_.z();
+  const double h = hover_acceleration();
   return std::max(h, 0.25 * kGravity) / kGravity;
 }
 
@@ -163,6 +167,74 @@ void PositionController::observe(const VehicleStateEstimate& est, double dt) {
       std::clamp(disturbance_.z(), -o.observer_limit_z_m_s2, o.observer_limit_z_m_s2);
 }
 
+PositionController::Thrust PositionController::thrust_for(const Eigen::Vector3d& a_cmd,
+                                                          ControllerOutput& out) const {
+  // Thrust vector with gravity feed-forward, F = m (a + g e_z), then tilt and thrust limits:
+  // the vertical part has priority, the horizontal part is scaled into the tilt cone. With the
+  // thrust scale, the learnt hover acceleration h = g + I_z - d_z is a shortfall of the rotors'
+  // force: F = m (h / g) (a' + g e_z), a' the command without I_z - d_z, whose vertical part is
+  // m (h + (h / g) a'_z), the same as before up to the feedback's scale.
+  const auto& o = options_;
+  const double thrust_scale = thrust_scale_of_hover();
+  Eigen::Vector3d a_shaped = a_cmd;
+  if (o.scale_thrust_by_hover_estimate) a_shaped.z() -= integral_.z() - disturbance_.z();
+  Eigen::Vector3d F = o.mass_kg * thrust_scale * (a_shaped + Eigen::Vector3d(0.0, 0.0, kGravity));
+  if (F.z() < o.min_thrust_N) {
+    F.z() = o.min_thrust_N;
+    out.thrust_limited = true;
+  }
+  out.tilt_limited = limit_horizontal(F, F.z() * std::tan(o.max_tilt_deg * kDegToRad));
+  double thrust = F.norm();
+  if (thrust > o.max_thrust_N) {
+    // Keep the vertical part where possible; give up horizontal authority first.
+    out.thrust_limited = true;
+    const double z = std::min(F.z(), o.max_thrust_N);
+    const double xy_max = std::sqrt(std::max(0.0, o.max_thrust_N * o.max_thrust_N - z * z));
+    F.z() = z;
+    out.tilt_limited |= limit_horizontal(F, xy_max);
+    thrust = F.norm();
+  } else if (thrust < o.min_thrust_N) {
+    thrust = o.min_thrust_N;
+    out.thrust_limited = true;
+  }
+  // What the vehicle is asked for on the learnt thrust scale (the nominal model's when off).
+  out.acceleration_command_world =
+      F / (o.mass_kg * thrust_scale) - Eigen::Vector3d(0.0, 0.0, kGravity);
+  if (o.scale_thrust_by_hover_estimate) {
+    out.acceleration_command_world.z() += integral_.z() - disturbance_.z();
+  }
+  return {F, thrust, thrust_scale};
+}
+
+void PositionController::integrate(const Eigen::Vector3d& e_v, const Thrust& thrust,
+                                   bool accel_limited, const ControllerOutput& out, double dt) {
+  // Anti-windup: integrate only while the output is not saturated in the error's direction
+  // (conditional integration), and clamp. With the observer the clamp holds the sum of the
+  // two disturbance terms, I - d, to the integral's limits, so that the integral cannot wind up
+  // against the observer (e.g. while the observer still converges) beyond what the integral
+  // alone could command.
+  if (dt <= 0.0) return;
+  const auto& o = options_;
+  const Eigen::Vector3d& F = thrust.F;
+  const double scale = o.disturbance_observer ? o.observer_integral_scale : 1.0;
+  if (!(out.tilt_limited || accel_limited)) {
+    integral_.head<2>() += scale * o.velocity_integral_gain_xy * e_v.head<2>() * dt;
+    Eigen::Vector3d total = integral_ - disturbance_;
+    limit_horizontal(total, o.integral_limit_xy_m_s2);
+    integral_.head<2>() = total.head<2>() + disturbance_.head<2>();
+    limit_horizontal(integral_, o.integral_limit_xy_m_s2);
+  }
+  const bool z_saturated_up = out.thrust_limited && F.z() >= o.max_thrust_N * 0.999;
+  const bool z_saturated_down = out.thrust_limited && F.z() <= o.min_thrust_N * 1.001;
+  if (!(z_saturated_up && e_v.z() > 0.0) && !(z_saturated_down && e_v.z() < 0.0)) {
+    const double z = integral_.z() + scale * o.velocity_integral_gain_z * e_v.z() * dt;
+    const double lo =
+        std::max(-o.integral_limit_z_m_s2, disturbance_.z() - o.integral_limit_z_m_s2);
+    const double hi = std::min(o.integral_limit_z_m_s2, disturbance_.z() + o.integral_limit_z_m_s2);
+    integral_.z() = lo <= hi ? std::clamp(z, lo, hi) : 0.5 * (lo + hi);
+  }
+}
+
 ControllerOutput PositionController::update(const VehicleStateEstimate& est,
                                             const PositionReference& ref) {
   const auto& o = options_;
@@ -196,65 +268,9 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
                       o.velocity_gain_z * e_v.z());
   const bool accel_limited = limit_horizontal(a_cmd, o.max_accel_xy_m_s2);
 
-  // Thrust vector with gravity feed-forward, F = m (a + g e_z), then tilt and thrust limits:
-  // the vertical part has priority, the horizontal part is scaled into the tilt cone. With the
-  // thrust scale, the learnt hover acceleration h = g + I_z - d_z is a shortfall of the rotors'
-  // force: F = m (h / g) (a' + g e_z), a' the command without I_z - d_z, whose vertical part is
-  // m (h + (h / g) a'_z), the same as before up to the feedback's scale.
-  const double thrust_scale = thrust_scale_of_hover();
-  Eigen::Vector3d a_shaped = a_cmd;
-  if (o.scale_thrust_by_hover_estimate) a_shaped.z() -= integral_.z() - disturbance_.z();
-  Eigen::Vector3d F = o.mass_kg * thrust_scale * (a_shaped + Eigen::Vector3d(0.0, 0.0, kGravity));
-  if (F.z() < o.min_thrust_N) {
-    F.z() = o.min_thrust_N;
-    out.thrust_limited = true;
-  }
-  out.tilt_limited = limit_horizontal(F, F.z() * std::tan(o.max_tilt_deg * kDegToRad));
-  double thrust = F.norm();
-  if (thrust > o.max_thrust_N) {
-    // Keep the vertical part where possible; give up horizontal authority first.
-    out.thrust_limited = true;
-    const double z = std::min(F.z(), o.max_thrust_N);
-    const double xy_max = std::sqrt(std::max(0.0, o.max_thrust_N * o.max_thrust_N - z * z));
-    F.z() = z;
-    out.tilt_limited |= limit_horizontal(F, xy_max);
-    thrust = F.norm();
-  } else if (thrust < o.min_thrust_N) {
-    thrust = o.min_thrust_N;
-    out.thrust_limited = true;
-  }
-  // What the vehicle is asked for on the learnt thrust scale (the nominal model's when off).
-  out.acceleration_command_world =
-      F / (o.mass_kg * thrust_scale) - Eigen::Vector3d(0.0, 0.0, kGravity);
-  if (o.scale_thrust_by_hover_estimate) {
-    out.acceleration_command_world.z() += integral_.z() - disturbance_.z();
-  }
-
-  // Anti-windup: integrate only while the output is not saturated in the error's direction
-  // (conditional integration), and clamp. With the observer the clamp holds the sum of the
-  // two disturbance terms, I - d, to the integral's limits, so that the integral cannot wind up
-  // against the observer (e.g. while the observer still converges) beyond what the integral
-  // alone could command.
-  if (dt > 0.0) {
-    const double scale = o.disturbance_observer ? o.observer_integral_scale : 1.0;
-    if (!(out.tilt_limited || accel_limited)) {
-      integral_.head<2>() += scale * o.velocity_integral_gain_xy * e_v.head<2>() * dt;
-      Eigen::Vector3d total = integral_ - disturbance_;
-      limit_horizontal(total, o.integral_limit_xy_m_s2);
-      integral_.head<2>() = total.head<2>() + disturbance_.head<2>();
-      limit_horizontal(integral_, o.integral_limit_xy_m_s2);
-    }
-    const bool z_saturated_up = out.thrust_limited && F.z() >= o.max_thrust_N * 0.999;
-    const bool z_saturated_down = out.thrust_limited && F.z() <= o.min_thrust_N * 1.001;
-    if (!(z_saturated_up && e_v.z() > 0.0) && !(z_saturated_down && e_v.z() < 0.0)) {
-      const double z = integral_.z() + scale * o.velocity_integral_gain_z * e_v.z() * dt;
-      const double lo =
-          std::max(-o.integral_limit_z_m_s2, disturbance_.z() - o.integral_limit_z_m_s2);
-      const double hi =
-          std::min(o.integral_limit_z_m_s2, disturbance_.z() + o.integral_limit_z_m_s2);
-      integral_.z() = lo <= hi ? std::clamp(z, lo, hi) : 0.5 * (lo + hi);
-    }
-  }
+  const Thrust thrust = thrust_for(a_cmd, out);
+  const Eigen::Vector3d& F = thrust.F;
+  integrate(e_v, thrust, accel_limited, out, dt);
   out.integral_m_s2 = integral_;
 
   // Thrust direction in the heading frame -> ZYX roll and pitch: b = Ry(pitch) Rx(roll) e_z
@@ -277,9 +293,9 @@ ControllerOutput PositionController::update(const VehicleStateEstimate& est,
   out.command.roll_rad = roll;
   out.command.pitch_rad = pitch;
   out.command.yaw_rate_rad_s = std::clamp(yaw_rate, -max_yaw_rate, max_yaw_rate);
-  out.command.thrust_N = thrust;
-  last_thrust_N_ = thrust;
-  last_thrust_scale_ = thrust_scale;
+  out.command.thrust_N = thrust.magnitude_N;
+  last_thrust_N_ = thrust.magnitude_N;
+  last_thrust_scale_ = thrust.scale;
   return out;
 }
 

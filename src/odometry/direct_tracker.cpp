@@ -128,6 +128,8 @@ struct DirectTracker::Impl {
     current_ref.resize(n);
     gx.resize(n);
     gy.resize(n);
+    photometric_median_hint.assign(n, 0.0F);
+    geometric_median_hint.assign(n, 0.0F);
   }
 
   // Rolling shutter (RollingShutter::readout_s > 0; it undistorts as well): the current
@@ -587,14 +589,16 @@ class LevelTerms {
     }
     m.photometric_buffers.pad(L.count);
     m.geometric_buffers.pad(L.count);
-    photometric_.set_median_hint(hint_slot(m.photometric_median_hint, level));
-    if (geometric_) geometric_->set_median_hint(hint_slot(m.geometric_median_hint, level));
+    const auto l = static_cast<std::size_t>(level);
+    photometric_.set_median_hint(m.photometric_median_hint[l]);
+    if (geometric_) geometric_->set_median_hint(m.geometric_median_hint[l]);
   }
 
   // Keeps the terms' last medians for the next alignment of this level.
   void keep_median_hints(DirectTracker::Impl& m, int level) const {
-    hint_slot(m.photometric_median_hint, level) = photometric_.median_hint();
-    if (geometric_) hint_slot(m.geometric_median_hint, level) = geometric_->median_hint();
+    const auto l = static_cast<std::size_t>(level);
+    m.photometric_median_hint[l] = photometric_.median_hint();
+    if (geometric_) m.geometric_median_hint[l] = geometric_->median_hint();
   }
 
   [[nodiscard]] std::span<ResidualTerm* const> list() const { return {list_.data(), size_}; }
@@ -620,12 +624,6 @@ class LevelTerms {
         std::in_place, L, m.depth_pyramid.level(level),
         static_cast<float>(o.terms.depth_max_relative_spread), m.geometric_buffers,
         static_cast<float>(o.robust.tukey_c), ScaleRule{6, floor, 0.0, 5e-5});
-  }
-
-  static float& hint_slot(std::vector<float>& hints, int level) {
-    const auto l = static_cast<std::size_t>(level);
-    if (hints.size() <= l) hints.resize(l + 1, 0.0F);
-    return hints[l];
   }
 
   PhotometricTerm photometric_;

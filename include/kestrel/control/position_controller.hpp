@@ -176,8 +176,20 @@ class PositionController {
  private:
   /// Updates the disturbance estimate from the estimate's specific force (see the options).
   void observe(const VehicleStateEstimate& estimate, double dt);
-  /// h / g with h = g + I_z - d_z the learnt hover acceleration; 1 when the scale is off.
+  /// h = g + I_z - d_z, the hover acceleration learnt by the z integrator and the observer.
+  [[nodiscard]] double hover_acceleration() const;
+  /// h / g (hover_acceleration); 1 when the scale is off.
   [[nodiscard]] double thrust_scale_of_hover() const;
+  /// The thrust vector for the acceleration command, within the tilt and thrust limits.
+  struct Thrust {
+    Eigen::Vector3d F = Eigen::Vector3d::Zero();  ///< world, N
+    double magnitude_N = 0.0;
+    double scale = 1.0;  ///< thrust_scale_of_hover() it was made with
+  };
+  [[nodiscard]] Thrust thrust_for(const Eigen::Vector3d& a_cmd, ControllerOutput& out) const;
+  /// The velocity integral's step with conditional anti-windup.
+  void integrate(const Eigen::Vector3d& e_v, const Thrust& thrust, bool accel_limited,
+                 const ControllerOutput& out, double dt);
 
   PositionControllerOptions options_;
   Eigen::Vector3d integral_ = Eigen::Vector3d::Zero();
