@@ -120,6 +120,15 @@ void BM_DepthPyramid(benchmark::State& s) {
 }
 BENCHMARK(BM_DepthPyramid);
 
+// The tracker's path: level 0 written in place (the rectified depth), levels 1-4 built from it.
+void BM_DepthPyramidFromBase(benchmark::State& s) {
+  image::DepthPyramid pyr;
+  pyr.base().create(480, 640, CV_32FC1);
+  cv::randu(pyr.base(), 0.5F, 4.0F);
+  for (auto _ : s) pyr.build_from_base(5);
+}
+BENCHMARK(BM_DepthPyramidFromBase);
+
 void BM_Gradients(benchmark::State& s) {
   cv::Mat in(480, 640, CV_32FC1), gx, gy;
   cv::randu(in, 0.0F, 1.0F);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -81,8 +82,34 @@ void IntensityPyramid::build_from_base(int levels, PyramidFilter filter) {
 }
 
 void DepthPyramid::build(const cv::Mat& level0_depth_m, int levels, float max_relative_spread) {
-  level0_depth_m.copyTo(base());
-  build_from_base(levels, max_relative_spread);
+  const cv::Mat& in = level0_depth_m;
+  const bool fused = levels > 1 && in.type() == CV_32FC1 && in.cols >= 2 && in.rows >= 2 &&
+                     (levels_.empty() || in.data != levels_[0].data);
+  if (!fused) {
+    in.copyTo(base());
+    build_from_base(levels, max_relative_spread);
+    return;
+  }
+  // Level 0's copy and level 1 in one pass: each pair of input rows is halved while the copy
+  // has just brought it into cache, so the input is read from memory once, not twice.
+  levels_.resize(static_cast<std::size_t>(levels));
+  cv::Mat& l0 = levels_[0];
+  cv::Mat& l1 = levels_[1];
+  l0.create(in.size(), CV_32FC1);
+  l1.create(half_size(in.size()), CV_32FC1);
+  const std::size_t row_bytes = static_cast<std::size_t>(in.cols) * sizeof(float);
+  for (int y = 0; y < l1.rows; ++y) {
+    const float* r0 = in.ptr<float>(2 * y);
+    const float* r1 = in.ptr<float>(2 * y + 1);
+    std::memcpy(l0.ptr<float>(2 * y), r0, row_bytes);
+    std::memcpy(l0.ptr<float>(2 * y + 1), r1, row_bytes);
+    kernels::depth_2x2_row(r0, r1, l1.ptr<float>(y), l1.cols, max_relative_spread);
+  }
+  if (in.rows % 2 == 1)
+    std::memcpy(l0.ptr<float>(in.rows - 1), in.ptr<float>(in.rows - 1), row_bytes);
+  for (std::size_t l = 2; l < levels_.size(); ++l) {
+    downsample_depth(levels_[l - 1], levels_[l], max_relative_spread);
+  }
 }
 
 cv::Mat& DepthPyramid::base() {

@@ -70,6 +70,29 @@ TEST(Pyramid, DepthIsNotAveragedAcrossOcclusionsOrInvalidPixels) {
   EXPECT_FLOAT_EQ(out.at<float>(0, 3), 4.0F);      // NaN, negative, inf ignored
 }
 
+// build() copies level 0 and halves it in one pass; it must give what a copy into base()
+// followed by build_from_base() gives: odd sizes, a view into a larger image, its own level 0.
+TEST(Pyramid, DepthBuildEqualsCopyThenBuildFromBase) {
+  cv::Mat big(101, 140, CV_32FC1);
+  cv::randu(big, 0.5F, 4.0F);
+  big(cv::Rect(3, 5, 20, 30)).setTo(0.0F);
+  for (const cv::Mat& in : {big, cv::Mat(big(cv::Rect(1, 2, 77, 63)))}) {
+    DepthPyramid built, reference;
+    built.build(in, 4);
+    in.copyTo(reference.base());
+    reference.build_from_base(4);
+    ASSERT_EQ(built.levels(), 4);
+    for (int l = 0; l < 4; ++l) {
+      ASSERT_EQ(built.level(l).size(), reference.level(l).size()) << "level " << l;
+      EXPECT_EQ(cv::norm(built.level(l), reference.level(l), cv::NORM_INF), 0.0) << "level " << l;
+    }
+    const cv::Mat level0 = built.level(0);  // shares the buffer: rebuilding must not corrupt it
+    built.build(level0, 4);
+    EXPECT_EQ(cv::norm(built.level(0), reference.level(0), cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(built.level(3), reference.level(3), cv::NORM_INF), 0.0);
+  }
+}
+
 TEST(Gradient, CentralDifferencesOfARampAreItsSlope) {
   const cv::Mat img = ramp(20, 10, 0.3F, -0.2F, 1.0F);
   cv::Mat gx, gy;

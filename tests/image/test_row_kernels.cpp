@@ -35,8 +35,9 @@ void on_every_simd_target(Body&& body) {
   return ::testing::AssertionSuccess();
 }
 
-// Widths from 1 to past two AVX-512 vectors, and a camera row.
-const std::vector<int> kWidths = {1, 3, 4, 7, 8, 15, 16, 17, 31, 33, 47, 64, 65, 320, 376};
+// Widths from 1 to past two AVX-512 vectors of bytes, and camera rows.
+const std::vector<int> kWidths = {1,  3,  4,  7,  8,   15,  16,  17, 31,
+                                  33, 47, 64, 65, 129, 320, 376, 640};
 
 TEST(ImageRowKernels, BgrToIntensityEqualsTheScalarReference) {
   std::mt19937 rng(7);
