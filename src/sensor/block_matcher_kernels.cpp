@@ -706,13 +706,13 @@ HWY_INLINE M32 fast_lr_fails(const FastFinish& t, int p, V32 pix, V32 best) {
   return hn::Gt(fast_cost<kBits>(t.fields, kFieldDiag, p), right_best);
 }
 
-// Pixels p .. p + Lanes - 1: each counts once, under its first failing check; the disparity
-// where none fails.
+// Pixels p .. p + Lanes - 1 (`pix`, their column numbers): each counts once, under its first
+// failing check; the disparity where none fails.
 template <int kBits, int kChecks>
-HWY_INLINE void fast_finish_vector(const FastFinish& t, int p, float* out, FastFinishCounts& n) {
+HWY_INLINE void fast_finish_vector(const FastFinish& t, int p, V32 pix, float* out,
+                                   FastFinishCounts& n) {
   const D32 d32;
   const DF32 df;
-  const V32 pix = hn::Iota(d32, p);
   const V32 best = fast_field(t.fields, kFieldBest, p);
   const V32 c0 = fast_cost<kBits>(t.fields, kFieldCost, p);
   const M32 unreach = hn::Gt(hn::Set(d32, t.min_d), pix);
@@ -838,8 +838,15 @@ void finish_row_fast(const RowScan& s, const FastRow& f, float* out, MatchStats&
   const V32 zero = hn::Zero(d32);
   FastFinishCounts n{zero, zero, zero, zero, zero, zero};
   const int step = static_cast<int>(hn::Lanes(d32));
+  // The column numbers stepped by a vector add: Iota(d32, p) inside the loop writes its lanes
+  // to the stack and loads them back as one vector, a store-forwarding stall on every step
+  // (29 % of this loop's samples on AVX2, perf annotate).
+  const V32 step_v = hn::Set(d32, step);
+  V32 pix = hn::Iota(d32, 0);
   int p = 0;
-  for (; p + step <= t.w; p += step) fast_finish_vector<kBits, kChecks>(t, p, out, n);
+  for (; p + step <= t.w; p += step, pix = hn::Add(pix, step_v)) {
+    fast_finish_vector<kBits, kChecks>(t, p, pix, out, n);
+  }
   add_fast_finish_counts(n, stats);
   for (; p < t.w; ++p) fast_finish1<kBits, kChecks>(t, p, out, stats);
 }
