@@ -100,6 +100,7 @@ class FlightLoop {
   bool vo_ok_ = false;
   TimeNs last_vision_update_ns_ = 0;
   double position_sigma_m_ = 0.0;
+  fusion::FusedState last_fused_;
   FlightCounters counters_;
 };
 
@@ -209,6 +210,7 @@ EstimatorOutput FlightLoop::estimate(TimeNs t_ns) {
   for (const fusion::FusedState& f : fusion_.poll(true)) {
     if ((f.flags & fusion::kFlagUpdated) != 0U) last_vision_update_ns_ = f.t_ns;
     position_sigma_m_ = f.sigma.head<3>().maxCoeff();
+    last_fused_ = f;
     predictor_.set_fused(f);
   }
   const auto predicted = predictor_.predict();
@@ -255,6 +257,12 @@ FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
   s.position_sigma_m = position_sigma_m_;
   s.command = w.command;
   s.crashed = truth.crashed;
+  s.v_true = truth.v_world;
+  s.v_est = e.v_world;
+  s.attitude_error_rad = (e.R_world_body * truth.R_world_body.inverse()).log();
+  s.accel_bias_est = last_fused_.state.accel_bias_m_s2;
+  s.accel_bias_true = imu_.accel_bias() + imu_.accel_drift(t_ns);
+  s.sigma_p_theta_v = last_fused_.sigma;
   return s;
 }
 

@@ -148,7 +148,11 @@ TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   const FlightResult r = simulation.run(0.5);
   const auto dir = test::fresh_temp_dir("flight_report");
   const auto files = write_flight_logs(dir, r);
-  ASSERT_EQ(files.size(), 2u);
+  ASSERT_EQ(files.size(), 3u);
+  std::ifstream estimator(dir / "estimator.csv");
+  std::string header;
+  ASSERT_TRUE(std::getline(estimator, header));
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 24) << header;
   std::ifstream log(dir / "log.csv");
   std::string line;
   ASSERT_TRUE(std::getline(log, line));

@@ -82,6 +82,16 @@ struct FlightSample {
   double position_sigma_m = 0.0;  ///< the filter's largest position standard deviation
   control::AttitudeThrustCommand command;
   bool crashed = false;
+  /// The estimator against the truth (estimator.csv): velocities, the attitude error
+  /// Log(R_est R_true^T) in the world frame (x, y: tilt; z: yaw), the accelerometer bias the
+  /// filter holds and the simulated one (random walk + warm-up drift), and the filter's
+  /// standard deviations of [p, theta, v] at its last output.
+  Eigen::Vector3d v_true = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_est = Eigen::Vector3d::Zero();
+  Eigen::Vector3d attitude_error_rad = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_est = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_true = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 9, 1> sigma_p_theta_v = Eigen::Matrix<double, 9, 1>::Zero();
 };
 
 struct FlightCounters {
