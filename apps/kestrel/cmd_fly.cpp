@@ -178,7 +178,7 @@ void add_fly_command(CLI::App& app) {
       ->capture_default_str()
       ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--out", args->out,
-                  "Output folder: log.csv, details.csv, top_view.png, errors.png");
+                  "Output folder: log.csv, details.csv, estimator.csv, top_view.png, errors.png");
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->add_flag("--list", args->list, "List the scenarios, then exit");
   cmd->add_option("--world", args->world,
@@ -186,8 +186,9 @@ void add_fly_command(CLI::App& app) {
                   "(docs/flight.md, \"World\"; --print-world writes one)")
       ->capture_default_str();
   cmd->add_flag("--mission-runs-in-hold", args->mission_runs_in_hold,
-                "Keep the mission's clock running while the supervisor holds (default: paused, "
-                "the mission resumes where it stopped)");
+                "Keep the mission's clock running while the supervisor holds, the hold a fixed "
+                "point (default: the clock eases to a stop, the hold flies that braking "
+                "mission, and the mission resumes where it stopped)");
   cmd->add_flag("--print-world", args->print_world,
                 "Print the --world as documented YAML (a file to start from), then exit");
   cmd->add_option("--vo-off-at", args->vo_off_at_s,

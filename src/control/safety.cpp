@@ -176,6 +176,7 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
       d.reference = mission;
       break;
     case SafetyMode::kImuHold:
+      if (o.hold_flies_mission) hold_ = mission;
       d.reference = hold_;
       break;
     case SafetyMode::kLanding: {

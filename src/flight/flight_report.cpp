@@ -75,7 +75,24 @@ std::vector<fs::path> write_flight_logs(const fs::path& dir, const FlightResult&
     }
     finish(out, details_path);
   }
-  return {log_path, details_path};
+  const fs::path estimator_path = dir / "estimator.csv";
+  {
+    std::ofstream out = open_for_writing(estimator_path);
+    out << "t,vx_true,vy_true,vz_true,vx_est,vy_est,vz_est,dth_x,dth_y,dth_z,ba_x_est,ba_y_est,"
+           "ba_z_est,ba_x_true,ba_y_true,ba_z_true,sp_x,sp_y,sp_z,sth_x,sth_y,sth_z,sv_x,sv_y,"
+           "sv_z\n";
+    for (const FlightSample& s : result.samples) {
+      out << fixed(s.t_s, 3);
+      for (const Eigen::Vector3d* v :
+           {&s.v_true, &s.v_est, &s.attitude_error_rad, &s.accel_bias_est, &s.accel_bias_true}) {
+        for (int k = 0; k < 3; ++k) out << ',' << fixed((*v)[k], 6);
+      }
+      for (int k = 0; k < 9; ++k) out << ',' << fixed(s.sigma_p_theta_v[k], 6);
+      out << '\n';
+    }
+    finish(out, estimator_path);
+  }
+  return {log_path, details_path, estimator_path};
 }
 
 std::vector<fs::path> write_flight_plots(const fs::path& dir, const FlightResult& result) {

@@ -12,6 +12,7 @@
 
 #include "kestrel/control/pwm_output.hpp"
 #include "kestrel/flight/imu_forward_predictor.hpp"
+#include "kestrel/flight/mission_clock.hpp"
 #include "kestrel/sim/camera_link.hpp"
 #include "kestrel/sim/scenes.hpp"
 #include "kestrel/sim/simulated_vehicle.hpp"
@@ -93,13 +94,13 @@ class FlightLoop {
   control::CommandWatchdog watchdog_;
 
   double camera_period_s_;
-  std::int64_t next_frame_ = 0;    // index of the next camera frame
-  double mission_paused_s_ = 0.0;  // mission time lost to the supervisor's holds
-  std::optional<double> last_control_t_s_;
+  std::int64_t next_frame_ = 0;  // index of the next camera frame
+  MissionClock mission_clock_;   // eases to a stop in the supervisor's holds
   std::deque<InFlight> in_flight_;
   bool vo_ok_ = false;
   TimeNs last_vision_update_ns_ = 0;
   double position_sigma_m_ = 0.0;
+  fusion::FusedState last_fused_;
   FlightCounters counters_;
 };
 
@@ -128,7 +129,8 @@ FlightLoop::FlightLoop(const sim::Scene& scene, const FlightOptions& options,
       output_(mapper_.motors_off()),
       supervisor_(options.safety),
       watchdog_(options.watchdog),
-      camera_period_s_(1.0 / options.camera_rate_hz) {
+      camera_period_s_(1.0 / options.camera_rate_hz),
+      mission_clock_(options.mission_ease_time_s) {
   const sim::ImuWorldOptions& w = options.world.imu;
   if (w.warm_up_gyro_drift_rad_s > 0.0 || w.warm_up_accel_drift_m_s2 > 0.0) {
     imu_.set_warm_up_drift(w.warm_up_gyro_drift_rad_s, w.warm_up_accel_drift_m_s2,
@@ -209,6 +211,7 @@ EstimatorOutput FlightLoop::estimate(TimeNs t_ns) {
   for (const fusion::FusedState& f : fusion_.poll(true)) {
     if ((f.flags & fusion::kFlagUpdated) != 0U) last_vision_update_ns_ = f.t_ns;
     position_sigma_m_ = f.sigma.head<3>().maxCoeff();
+    last_fused_ = f;
     predictor_.set_fused(f);
   }
   const auto predicted = predictor_.predict();
@@ -224,15 +227,12 @@ EstimatorOutput FlightLoop::estimate(TimeNs t_ns) {
 
 FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
   const auto [e, health] = estimate(t_ns);
-  // The supervisor's mode of the previous step: the mission's time stands still in a hold
-  // (counted apart, so that a flight without holds has the mission at exactly t_s).
-  if (last_control_t_s_ && options_.pause_mission_in_hold &&
-      supervisor_.mode() != control::SafetyMode::kNominal) {
-    mission_paused_s_ += t_s - *last_control_t_s_;
-  }
-  last_control_t_s_ = t_s;
+  // The supervisor's mode of the previous step: the mission's clock eases to a stop in a hold
+  // and the hold flies it (SafetyOptions::hold_flies_mission), then eases back.
+  mission_clock_.advance(
+      t_s, !options_.pause_mission_in_hold || supervisor_.mode() == control::SafetyMode::kNominal);
   const control::SafetyDecision decision =
-      supervisor_.update(t_ns, e, health, scenario_.path.at(t_s - mission_paused_s_),
+      supervisor_.update(t_ns, e, health, mission_clock_.reference(scenario_.path),
                          controller_.hover_thrust_estimate_N());
   control::AttitudeThrustCommand command = decision.override_command
                                                ? *decision.override_command
@@ -255,6 +255,12 @@ FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
   s.position_sigma_m = position_sigma_m_;
   s.command = w.command;
   s.crashed = truth.crashed;
+  s.v_true = truth.v_world;
+  s.v_est = e.v_world;
+  s.attitude_error_rad = (e.R_world_body * truth.R_world_body.inverse()).log();
+  s.accel_bias_est = last_fused_.state.accel_bias_m_s2;
+  s.accel_bias_true = imu_.accel_bias() + imu_.accel_drift(t_ns);
+  s.sigma_p_theta_v = last_fused_.sigma;
   return s;
 }
 
@@ -282,6 +288,9 @@ void FlightOptions::validate() const {
     throw std::invalid_argument("flight: vision_latency_s must be in [0, 1] s");
   }
   if (!(vo_off_for_s >= 0.0)) throw std::invalid_argument("flight: vo_off_for_s must be >= 0");
+  if (!(mission_ease_time_s > 0.0) || mission_ease_time_s > 10.0) {
+    throw std::invalid_argument("flight: mission_ease_time_s must be in (0, 10] s");
+  }
   world.validate();
   vision.validate();
   fusion.validate();
@@ -334,6 +343,8 @@ FlightSimulation::FlightSimulation(Scenario scenario, FlightOptions options)
   options_.fusion.set_imu_noise(options_.imu_noise);
   options_.fusion.imu_noise_inflation = inflation;
   options_.fusion.T_body_cam = options_.vision.T_body_cam;
+  // The hold flies the mission that the eased clock brings to rest.
+  options_.safety.hold_flies_mission = options_.pause_mission_in_hold;
   // The filter must hold its inputs until the latest measurement has arrived: the longest
   // latency, plus the stamp's offset from the exposure (the designer knows neither exactly,
   // so 10 ms of margin).

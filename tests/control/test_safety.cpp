@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <vector>
 
 #include "closed_loop.hpp"
 
@@ -217,6 +218,48 @@ TEST(SafetySupervisor, NonFiniteEstimateIsAFailure) {
   ASSERT_TRUE(d.override_command.has_value());
   EXPECT_NEAR(d.override_command->thrust_N, 0.95 * 11.8, 1e-12);
   EXPECT_FALSE(d.reason.empty());
+}
+
+// hold_flies_mission: the IMU hold flies the mission reference it is handed (which its caller
+// brings to rest) instead of a fixed point at the estimate, and a landing after the hold's
+// timeout starts below the last of it; off, the hold is the estimate's position at rest.
+TEST(SafetySupervisor, HoldFliesTheMissionWhenAsked) {
+  auto hold = [](bool flies_mission) {
+    SafetyOptions o;
+    o.hold_flies_mission = flies_mission;
+    SafetySupervisor s(o);
+    EstimatorHealth h;  // the last vision update at t = 0
+    VehicleStateEstimate e;
+    e.p_world = {0.0, 0.0, 1.0};
+    e.v_world = {0.5, 0.0, 0.0};
+    std::vector<SafetyDecision> log;
+    for (int k = 0; k * 0.005 < o.imu_hold_timeout_s + 1.0; ++k) {
+      PositionReference mission;  // braking along x to a stop at 0.25 m
+      const double t = k * 0.005;
+      mission.p_world = {0.25 * (1.0 - std::exp(-4.0 * t)), 0.0, 1.0};
+      mission.v_world = {std::exp(-4.0 * t), 0.0, 0.0};
+      log.push_back(s.update(s_to_ns(t), e, h, mission, 11.8));
+      e.p_world.x() = mission.p_world.x();
+      if (flies_mission && log.back().mode != SafetyMode::kLanding) {
+        EXPECT_TRUE(log.back().reference.p_world.isApprox(mission.p_world)) << k;
+      }
+    }
+    return log;
+  };
+  const auto flies = hold(true);
+  const auto fixed = hold(false);
+  bool held = false;
+  for (std::size_t k = 0; k < flies.size(); ++k) {
+    if (flies[k].mode != SafetyMode::kImuHold) continue;
+    held = true;
+    EXPECT_GT(flies[k].reference.v_world.x(), 0.0) << k;  // the mission's feed-forward
+    EXPECT_EQ(fixed[k].reference.v_world.norm(), 0.0) << k;
+  }
+  EXPECT_TRUE(held);
+  ASSERT_EQ(flies.back().mode, SafetyMode::kLanding);
+  ASSERT_EQ(fixed.back().mode, SafetyMode::kLanding);
+  EXPECT_NEAR(flies.back().reference.p_world.x(), 0.25, 1e-6);  // where the mission stopped
+  EXPECT_LT(fixed.back().reference.p_world.x(), 0.25 * (1.0 - std::exp(-4.0 * 0.31)));
 }
 
 }  // namespace

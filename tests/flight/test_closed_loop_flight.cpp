@@ -3,6 +3,7 @@
 // they run in seconds: a hover, an odometry outage, and the logs `kestrel fly` writes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <optional>
 
@@ -70,11 +71,17 @@ TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
   EXPECT_LT((last.p_true - last.p_ref).norm(), 0.10);
 }
 
-// An outage on the square's first leg: the supervisor holds, and the mission's clock with it,
-// so that the reference handed back is where the mission stopped (with the clock running on
-// it would be ~0.4 m further along the leg).
-TEST(ClosedLoopFlight, MissionResumesWhereTheHoldStoppedIt) {
-  auto reference_jump = [](bool pause) {
+// An outage on the square's first leg: the supervisor holds, and the mission's clock eases to
+// a stop with it (the hold flies the braking mission), so that the reference never steps: not
+// when the hold starts, nor when it hands back (with the clock running on the reference would
+// jump ~0.4 m further along the leg there). Largest step of the reference between two control
+// steps, and its largest distance from where the hold started.
+TEST(ClosedLoopFlight, MissionBrakesInTheHoldAndResumesWhereItStopped) {
+  struct Steps {
+    double largest_step_m = 0.0;
+    double hold_travel_m = 0.0;
+  };
+  auto reference_steps = [](bool pause) {
     FlightOptions o = small_options();
     o.vo_off_at_s = 4.0;  // cruising along the first leg (it starts at 3 s)
     o.vo_off_for_s = 1.0;
@@ -82,23 +89,30 @@ TEST(ClosedLoopFlight, MissionResumesWhereTheHoldStoppedIt) {
     FlightSimulation simulation(scenario("square"), o);
     const FlightResult r = simulation.run(7.0);
     EXPECT_FALSE(r.crashed);
-    std::optional<Eigen::Vector3d> before;
+    Steps steps;
+    std::optional<Eigen::Vector3d> hold_start;
+    bool resumed = false;
     for (std::size_t i = 1; i < r.samples.size(); ++i) {
       const FlightSample& prev = r.samples[i - 1];
       const FlightSample& s = r.samples[i];
+      steps.largest_step_m = std::max(steps.largest_step_m, (s.p_ref - prev.p_ref).norm());
       if (prev.mode == control::SafetyMode::kNominal && s.mode != control::SafetyMode::kNominal) {
-        before = prev.p_ref;
+        hold_start = prev.p_ref;
       }
-      if (before && prev.mode != control::SafetyMode::kNominal &&
-          s.mode == control::SafetyMode::kNominal) {
-        return (s.p_ref - *before).norm();
+      if (hold_start && s.mode != control::SafetyMode::kNominal) {
+        steps.hold_travel_m = std::max(steps.hold_travel_m, (s.p_ref - *hold_start).norm());
       }
+      resumed = resumed || (hold_start && s.mode == control::SafetyMode::kNominal);
     }
-    ADD_FAILURE() << "no hold and return to the mission";
-    return 0.0;
+    EXPECT_TRUE(resumed) << "no hold and return to the mission";
+    return steps;
   };
-  EXPECT_LT(reference_jump(true), 0.05);
-  EXPECT_GT(reference_jump(false), 0.2);
+  const Steps eased = reference_steps(true);
+  // 0.5 m/s over one 5 ms control step is 2.5 mm.
+  EXPECT_LT(eased.largest_step_m, 0.004);
+  // Braking from 0.5 m/s stops 2 T = 0.5 s of mission time (0.25 m) further along the leg.
+  EXPECT_NEAR(eased.hold_travel_m, 0.25, 0.03);
+  EXPECT_GT(reference_steps(false).largest_step_m, 0.2);
 }
 
 // The realistic world (wind, a heavier and weaker vehicle than the controller assumes, the
@@ -148,7 +162,11 @@ TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   const FlightResult r = simulation.run(0.5);
   const auto dir = test::fresh_temp_dir("flight_report");
   const auto files = write_flight_logs(dir, r);
-  ASSERT_EQ(files.size(), 2u);
+  ASSERT_EQ(files.size(), 3u);
+  std::ifstream estimator(dir / "estimator.csv");
+  std::string header;
+  ASSERT_TRUE(std::getline(estimator, header));
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 24) << header;
   std::ifstream log(dir / "log.csv");
   std::string line;
   ASSERT_TRUE(std::getline(log, line));

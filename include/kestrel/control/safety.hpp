@@ -30,6 +30,11 @@ struct SafetyOptions {
   double blind_descent_max_s = 10.0;
   /// Odometry that returns while landing resumes the mission (false: the landing completes).
   bool resume_when_landing = false;
+  /// The IMU hold flies the mission reference it is handed, which the caller brings to rest
+  /// (the flight's MissionClock eases its clock to a stop), instead of a fixed point at the
+  /// estimate's position with zero velocity, whose velocity step the vehicle overshoots; a
+  /// landing then starts below the last of it. False: the fixed point.
+  bool hold_flies_mission = false;
 
   void validate() const;
   [[nodiscard]] std::string to_yaml() const;
@@ -50,6 +55,7 @@ struct SafetyOptions {
     v("blind_descent_thrust_fraction", blind_descent_thrust_fraction);
     v("blind_descent_max_s", blind_descent_max_s);
     v("resume_when_landing", resume_when_landing);
+    v("hold_flies_mission", hold_flies_mission);
   }
 };
 

@@ -15,9 +15,10 @@ namespace kestrel::flight {
 /// (seconds, metres, world frame; vo_ok 0 or 1). The header is the first line.
 const std::vector<std::string>& flight_log_columns();
 
-/// Writes log.csv (flight_log_columns) and details.csv (mode, filter sigma, command) into
-/// `dir`, which the caller has claimed (io::claim_output_dir). Throws InputError naming the
-/// file if writing fails. Returns the paths written.
+/// Writes log.csv (flight_log_columns), details.csv (mode, filter sigma, command) and
+/// estimator.csv (FlightSample's estimator-against-truth fields) into `dir`, which the caller has
+/// claimed (io::claim_output_dir). Throws InputError naming the file if writing fails. Returns the
+/// paths written.
 std::vector<std::filesystem::path> write_flight_logs(const std::filesystem::path& dir,
                                                      const FlightResult& result);
 

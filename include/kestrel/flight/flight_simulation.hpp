@@ -41,9 +41,14 @@ struct FlightOptions {
   double vo_off_for_s = 0.0;
   std::uint64_t seed = 1;  ///< IMU noise and biases, camera noise, pattern, scene textures
   /// The mission's clock runs only while the supervisor flies the mission: a hold (odometry
-  /// lost) pauses it, so that the vehicle resumes where it stopped instead of being handed a
-  /// reference that ran on meanwhile (false: the clock is the flight's).
+  /// lost) eases it to a stop (MissionClock) and the hold flies it
+  /// (SafetyOptions::hold_flies_mission is set to this), so that the vehicle brakes along the
+  /// path and resumes where it stopped instead of being handed a reference that ran on
+  /// meanwhile (false: the clock is the flight's, the hold a fixed point).
   bool pause_mission_in_hold = true;
+  /// Time constant of the mission clock's easing: at v along the path the hold brakes at
+  /// most v / (e T) and stops 2 v T further on (0.5 m/s: 0.74 m/s^2, 25 cm).
+  double mission_ease_time_s = 0.25;
 
   /// Wind, the true vehicle against `vehicle`, the IMU's in-flight noise and drift, the
   /// camera's imperfections (default: ideal, none of them).
@@ -82,6 +87,16 @@ struct FlightSample {
   double position_sigma_m = 0.0;  ///< the filter's largest position standard deviation
   control::AttitudeThrustCommand command;
   bool crashed = false;
+  /// The estimator against the truth (estimator.csv): velocities, the attitude error
+  /// Log(R_est R_true^T) in the world frame (x, y: tilt; z: yaw), the accelerometer bias the
+  /// filter holds and the simulated one (random walk + warm-up drift), and the filter's
+  /// standard deviations of [p, theta, v] at its last output.
+  Eigen::Vector3d v_true = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_est = Eigen::Vector3d::Zero();
+  Eigen::Vector3d attitude_error_rad = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_est = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_true = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 9, 1> sigma_p_theta_v = Eigen::Matrix<double, 9, 1>::Zero();
 };
 
 struct FlightCounters {
