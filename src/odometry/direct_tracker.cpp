@@ -341,6 +341,22 @@ struct TrackerAccess {
     } else {
       L.median_depth = 0.0;
     }
+    set_depth_noise_scale(o, L);
+  }
+
+  // The point-to-plane residuals' depth-noise scales (ReferenceLevel::depth_noise_scale).
+  static void set_depth_noise_scale(const DirectTrackerOptions& o, ReferenceLevel& L) {
+    L.depth_noise_scale.clear();
+    if (o.terms.geometric == GeometricTerm::kOff || !(o.terms.depth_noise_per_m > 0.0) ||
+        !(L.median_depth > 0.0)) {
+      return;
+    }
+    L.depth_noise_scale.assign(L.x.size(), 0.0F);
+    const auto zm = static_cast<float>(L.median_depth);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(L.count); ++k) {
+      const float s = zm / L.z[k];
+      L.depth_noise_scale[k] = s * s;
+    }
   }
 
   // Score = squared gradient where the point is usable (depth in range, gradient above
