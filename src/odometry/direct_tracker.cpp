@@ -588,8 +588,9 @@ struct TrackerAccess {
   static void bin_normals(const cv::Mat& dep, const PinholeCamera& cam, float spread,
                           const DirectTrackerOptions& o, NormalBins& bins) {
     for (auto& b : bins) b.clear();
-    const double cells =
-        static_cast<double>(dep.cols) * dep.rows / std::max(1, 4 * o.selection.max_points);
+    // selection.max_points 0 (no limit): every pixel is a candidate.
+    const int n = o.selection.max_points;
+    const double cells = n > 0 ? static_cast<double>(dep.cols) * dep.rows / (4.0 * n) : 1.0;
     const int step = std::max(1, static_cast<int>(std::sqrt(cells)));
     const auto zmin = static_cast<float>(o.selection.min_depth_m);
     const auto zmax = static_cast<float>(o.selection.max_depth_m);
@@ -645,13 +646,13 @@ struct TrackerAccess {
     return true;
   }
 
-  // Up to n candidates, as evenly over the bins as they allow (equal shares; what a small bin
-  // leaves goes to the others), each bin's share spread evenly over its candidates.
+  // Up to n candidates (n <= 0: all), as evenly over the bins as they allow (equal shares; what a
+  // small bin leaves goes to the others), each bin's share spread evenly over its candidates.
   static void sample_bins(const NormalBins& bins, int n, std::vector<int>& out) {
     std::array<std::size_t, kNormalBins * kNormalBins> quota{};
     std::size_t total = 0;
     for (const auto& b : bins) total += b.size();
-    std::size_t left = std::min(total, static_cast<std::size_t>(std::max(0, n)));
+    std::size_t left = n > 0 ? std::min(total, static_cast<std::size_t>(n)) : total;
     while (left > 0) {
       std::size_t open = 0;
       for (std::size_t b = 0; b < bins.size(); ++b) open += quota[b] < bins[b].size() ? 1 : 0;
