@@ -62,6 +62,11 @@ image::Interpolation level_sampling(const DirectTrackerOptions& o, bool finest) 
                                                  : image::Interpolation::kBilinear;
 }
 
+// The geometric fallback's candidates by normal direction: 5 x 5 bins over the normal's x and y
+// (TrackerAccess::bin_normals).
+constexpr int kNormalBins = 5;
+using NormalBins = std::array<std::vector<int>, kNormalBins * kNormalBins>;
+
 }  // namespace
 
 struct DirectTracker::Impl {
@@ -90,6 +95,10 @@ struct DirectTracker::Impl {
   std::vector<ReferenceLevel> plane;
   std::vector<cv::Mat> ref_depth;
   bool plane_built = false;
+  // bin_normals' buffers, kept across keyframes: its bins and one row's normals.
+  NormalBins normal_bins;
+  std::vector<float> row_nx, row_ny;
+  std::vector<std::uint8_t> row_ok;
   bool has_ref = false;
   TimeNs ref_t_ns = 0;
   SE3 T_world_ref;
@@ -554,9 +563,8 @@ struct TrackerAccess {
     G.height = L.height;
     G.median_depth = L.median_depth;
     const auto spread = static_cast<float>(o.terms.depth_max_relative_spread);
-    NormalBins bins;
-    bin_normals(dep, cam, spread, o, bins);
-    sample_bins(bins, o.selection.max_points, m.selected);
+    bin_normals(m, dep, cam, spread, o);
+    sample_bins(m.normal_bins, o.selection.max_points, m.selected);
     const int n = static_cast<int>(m.selected.size());
     reset_points(G, n, static_cast<std::size_t>(pad_to_lanes(n)));
     for (int i = 0; i < n; ++i) {
@@ -578,15 +586,13 @@ struct TrackerAccess {
     return {(u - cam.cx()) / cam.fx() * z, (v - cam.cy()) / cam.fy() * z, z};
   }
 
-  // Candidates for build_plane_level, by normal direction: 5 x 5 bins over the normal's x and y.
-  static constexpr int kNormalBins = 5;
-  using NormalBins = std::array<std::vector<int>, kNormalBins * kNormalBins>;
-
   // The pixels of a grid of at least ~4 x selection.max_points over the depth level (its step
-  // rounded down) whose depth is in the selection's range and whose normal is reliable, each in its
-  // normal's bin.
-  static void bin_normals(const cv::Mat& dep, const PinholeCamera& cam, float spread,
-                          const DirectTrackerOptions& o, NormalBins& bins) {
+  // rounded down) whose depth is in the selection's range and whose normal is reliable, each in
+  // its normal's bin (m.normal_bins). The normals of a sampled row are computed for all its
+  // columns at once (kernels::surface_normal_row, SIMD).
+  static void bin_normals(DirectTracker::Impl& m, const cv::Mat& dep, const PinholeCamera& cam,
+                          float spread, const DirectTrackerOptions& o) {
+    NormalBins& bins = m.normal_bins;
     for (auto& b : bins) b.clear();
     // selection.max_points 0 (no limit): every pixel is a candidate.
     const int n = o.selection.max_points;
@@ -594,56 +600,33 @@ struct TrackerAccess {
     const int step = std::max(1, static_cast<int>(std::sqrt(cells)));
     const auto zmin = static_cast<float>(o.selection.min_depth_m);
     const auto zmax = static_cast<float>(o.selection.max_depth_m);
-    const FloatCamera fc{static_cast<float>(cam.fx()), static_cast<float>(cam.fy()),
-                         static_cast<float>(cam.cx()), static_cast<float>(cam.cy())};
+    const auto w = static_cast<std::size_t>(dep.cols);
+    m.row_nx.resize(w);
+    m.row_ny.resize(w);
+    m.row_ok.resize(w);
+    kernels::NormalRow row;
+    row.width = dep.cols;
+    row.fx = static_cast<float>(cam.fx());
+    row.fy = static_cast<float>(cam.fy());
+    row.cx = static_cast<float>(cam.cx());
+    row.cy = static_cast<float>(cam.cy());
+    row.max_spread = 2.0F * spread;
     auto bin = [](float c) {
       return std::clamp(static_cast<int>((c + 1.0F) * 0.5F * kNormalBins), 0, kNormalBins - 1);
     };
     for (int v = 1; v < dep.rows - 1; v += step) {
-      const float* d = dep.ptr<float>(v);
+      row.up = dep.ptr<float>(v - 1);
+      row.mid = dep.ptr<float>(v);
+      row.down = dep.ptr<float>(v + 1);
+      row.v = v;
+      kernels::surface_normal_row(row, m.row_nx.data(), m.row_ny.data(), m.row_ok.data());
       for (int u = 1; u < dep.cols - 1; u += step) {
-        if (!(d[u] >= zmin && d[u] <= zmax)) continue;
-        float nx = 0.0F, ny = 0.0F;
-        if (!fast_normal(dep, fc, u, v, 2.0F * spread, nx, ny)) continue;
-        bins[static_cast<std::size_t>(bin(ny) * kNormalBins + bin(nx))].push_back(v * dep.cols + u);
+        const auto c = static_cast<std::size_t>(u);
+        if (!(row.mid[u] >= zmin && row.mid[u] <= zmax) || m.row_ok[c] == 0) continue;
+        bins[static_cast<std::size_t>(bin(m.row_ny[c]) * kNormalBins + bin(m.row_nx[c]))].push_back(
+            v * dep.cols + u);
       }
     }
-  }
-
-  struct FloatCamera {
-    float fx, fy, cx, cy;
-  };
-
-  // normal_at's test and normal (x, y of the unit normal) in float, for binning candidates; a
-  // rare disagreement at its thresholds leaves a point without a normal (it takes no part).
-  static bool fast_normal(const cv::Mat& dep, const FloatCamera& c, int u, int v, float spread2,
-                          float& nx, float& ny) {
-    const float* row = dep.ptr<float>(v);
-    const float z0 = row[u], zl = row[u - 1], zr = row[u + 1];
-    const float zu = dep.ptr<float>(v - 1)[u], zd = dep.ptr<float>(v + 1)[u];
-    for (float z : {zl, zr, zu, zd}) {
-      if (!(z > 0.0F && z < 1e3F) || std::fabs(z - z0) > spread2 * z0) return false;
-    }
-    const float xu = (static_cast<float>(u) - c.cx) / c.fx,
-                yv = (static_cast<float>(v) - c.cy) / c.fy;
-    const float ix = 1.0F / c.fx, iy = 1.0F / c.fy;
-    // dx = X(u+1, zr) - X(u-1, zl), dy = X(v+1, zd) - X(v-1, zu) (back-projected).
-    const float ax = (xu + ix) * zr - (xu - ix) * zl, ay = yv * (zr - zl), az = zr - zl;
-    const float bx = xu * (zd - zu), by = (yv + iy) * zd - (yv - iy) * zu, bz = zd - zu;
-    float n0 = ay * bz - az * by, n1 = az * bx - ax * bz, n2 = ax * by - ay * bx;
-    const float len = std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
-    if (!(len > 0.0F)) return false;
-    const float px = xu * z0, py = yv * z0;
-    float dot = (n0 * px + n1 * py + n2 * z0) / len;
-    if (dot > 0.0F) {
-      n0 = -n0;
-      n1 = -n1;
-      dot = -dot;
-    }
-    if (!(-dot > 0.2F * std::sqrt(px * px + py * py + z0 * z0))) return false;
-    nx = n0 / len;
-    ny = n1 / len;
-    return true;
   }
 
   // Up to n candidates (n <= 0: all), as evenly over the bins as they allow (equal shares; what a
