@@ -32,10 +32,6 @@ struct MedianBracket {
 void bracket_range(const float* residual, const std::uint8_t* valid, int begin, int count, float lo,
                    float hi, MedianBracket& b, float* scratch);
 
-/// surface_normal_row_scalar over columns [from, to): the SIMD version's last columns.
-void surface_normal_columns(const NormalRow& row, int from, int to, float* nx, float* ny,
-                            std::uint8_t* ok);
-
 /// The element at index k of the n values in v, sorted ascending; the values are >= 0 (absolute
 /// residuals). Reorders v.
 float select_kth(float* v, int n, int k);

@@ -49,11 +49,9 @@ TEST(RealSequence, Freiburg1RpyPart1AccuracyRegression) {
   std::cout << "fr1/rpy part1: RPE " << e.rpe.trans_rmse_m_s() << " m/s, " << e.rpe.rot_rmse_deg_s()
             << " deg/s, ATE " << e.ate.stats_m.rmse << " m, failures " << failures
             << ", geometric fallbacks " << fallbacks << "\n";
-  // Targets: RPE <= 0.035 m/s and <= 1.9 deg/s. Measured: 0.0238 m/s,
-  // 1.671 deg/s, ATE 0.0264 m, 0 failures, 54 geometric fallbacks (0.0264 m/s, 1.695 deg/s before
-  // the keyframe fallback's own point-to-plane points; 0.0270 m/s, 1.761 deg/s before the
-  // depth-noise scale; 2.063 deg/s before the fallback's rotation from the previous frame;
-  // 3.14 deg/s and 18 failures before the fallback).
+  // Targets: RPE <= 0.035 m/s and <= 1.9 deg/s. Measured: 0.0266 m/s,
+  // 1.766 deg/s, ATE 0.0291 m, 0 failures, 50 geometric fallbacks (2.063 deg/s before the
+  // fallback's rotation from the previous frame; 3.14 deg/s and 18 failures before the fallback).
   EXPECT_LE(e.rpe.trans_rmse_m_s(), 0.035);
   EXPECT_LE(e.rpe.rot_rmse_deg_s(), 1.9);
   EXPECT_EQ(failures, 0);
