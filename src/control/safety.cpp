@@ -98,14 +98,21 @@ void SafetySupervisor::enter(SafetyMode mode, TimeNs t_ns, std::string reason) {
 SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate& est,
                                         const EstimatorHealth& health,
                                         const PositionReference& mission, double hover_thrust_N) {
+  transition(t_ns, est, health, hover_thrust_N);
+  check_touchdown(t_ns, est, mission);
+  return decide(t_ns, est, mission);
+}
+
+void SafetySupervisor::transition(TimeNs t_ns, const VehicleStateEstimate& est,
+                                  const EstimatorHealth& health, double hover_thrust_N) {
   const auto& o = options_;
   const bool estimate_failed = !health.estimate_valid || !finite_estimate(est) ||
                                !(health.position_sigma_m <= o.max_position_sigma_m);
   const bool vision_ok = ns_to_s(t_ns - health.last_vision_update_ns) <= o.vision_timeout_s;
   const double hover = std::isfinite(hover_thrust_N) && hover_thrust_N > 0.0 ? hover_thrust_N : 0.0;
 
-  // Transitions. Estimator failure is latched: a filter that diverged once is not trusted again
-  // in this flight.
+  // Estimator failure is latched: a filter that diverged once is not trusted again in this
+  // flight.
   if (mode_ != SafetyMode::kLanded && mode_ != SafetyMode::kBlindDescent && estimate_failed) {
     enter(SafetyMode::kBlindDescent, t_ns,
           !health.estimate_valid  ? "estimator reports failure"
@@ -113,15 +120,12 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
                                   : "position uncertainty above max_position_sigma_m");
     blind_thrust_N_ = o.blind_descent_thrust_fraction * hover;
   }
-  auto hold_here = [&] {
-    hold_ = PositionReference{};
-    hold_.p_world = est.p_world;
-    hold_.yaw_rad = yaw_of(est.R_world_body);
-  };
   switch (mode_) {
     case SafetyMode::kNominal:
       if (!vision_ok) {
-        hold_here();
+        hold_ = PositionReference{};
+        hold_.p_world = est.p_world;
+        hold_.yaw_rad = yaw_of(est.R_world_body);
         enter(SafetyMode::kImuHold, t_ns, "odometry lost: holding on the IMU");
       }
       break;
@@ -145,11 +149,15 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
     case SafetyMode::kLanded:
       break;
   }
+}
 
-  // Touchdown at the end of a mission that lands: once the vehicle has flown, a mission
-  // reference resting on the ground and an estimate low and still on it for landed_hold_s
-  // mean it has landed (motors off), also when the odometry was lost in the last centimetres
-  // (a forward camera near the floor sees it closer than its stereo range).
+// Touchdown at the end of a mission that lands: once the vehicle has flown, a mission
+// reference resting on the ground and an estimate low and still on it for landed_hold_s mean
+// it has landed (motors off), also when the odometry was lost in the last centimetres (a
+// forward camera near the floor sees it closer than its stereo range).
+void SafetySupervisor::check_touchdown(TimeNs t_ns, const VehicleStateEstimate& est,
+                                       const PositionReference& mission) {
+  const auto& o = options_;
   const double height = est.p_world.z() - o.ground_z_m;
   if (height > 2.0 * o.landed_height_m) airborne_ = true;
   const bool mission_on_ground = mission.p_world.z() - o.ground_z_m < o.landed_height_m &&
@@ -167,7 +175,12 @@ SafetyDecision SafetySupervisor::update(TimeNs t_ns, const VehicleStateEstimate&
   } else {
     touchdown_since_ns_.reset();
   }
+}
 
+// The reference (or the override) the mode flies; a landing that has settled ends here.
+SafetyDecision SafetySupervisor::decide(TimeNs t_ns, const VehicleStateEstimate& est,
+                                        const PositionReference& mission) {
+  const auto& o = options_;
   SafetyDecision d;
   d.mode = mode_;
   d.reason = reason_;

@@ -96,6 +96,14 @@ class SafetySupervisor {
 
  private:
   void enter(SafetyMode mode, TimeNs t_ns, std::string reason);
+  // update()'s three steps: the mode's transitions, the touchdown at a mission's end, and
+  // what the mode flies.
+  void transition(TimeNs t_ns, const VehicleStateEstimate& est, const EstimatorHealth& health,
+                  double hover_thrust_N);
+  void check_touchdown(TimeNs t_ns, const VehicleStateEstimate& est,
+                       const PositionReference& mission);
+  SafetyDecision decide(TimeNs t_ns, const VehicleStateEstimate& est,
+                        const PositionReference& mission);
   SafetyOptions options_;
   SafetyMode mode_ = SafetyMode::kNominal;
   TimeNs mode_since_ns_ = 0;
