@@ -10,10 +10,13 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <utility>
 
 #include "alignment_kernels_reference.hpp"
@@ -418,6 +421,103 @@ void NormalEquations8(const float* const* J, int count, const float* w, const fl
   accumulate_rows<8>(J, pad_to_lanes(count), w, r, H, g, std::make_integer_sequence<int, 8>{});
 }
 
+// gather_abs_valid: |r| of the valid lanes, packed by a compressing store. The store may write
+// a whole vector at out + m; m <= i, so it stays inside out[0, count).
+int GatherAbsValid(const float* residual, const std::uint8_t* valid, int count, float* out) {
+  const DF df;
+  const auto N = static_cast<int>(hn::Lanes(df));
+  int m = 0, i = 0;
+  for (; i + N <= count; i += N) {
+    const VF a = hn::Abs(hn::LoadU(df, residual + i));
+    m += static_cast<int>(hn::CompressStore(a, load_valid(valid + i), df, out + m));
+  }
+  for (; i < count; ++i) {
+    out[m] = std::fabs(residual[i]);
+    m += valid[i];
+  }
+  return m;
+}
+
+// How many of v[0, n) are below lo and above hi.
+struct OutsideCounts {
+  int below = 0, above = 0;
+};
+HWY_INLINE OutsideCounts count_outside(const float* v, int n, float lo, float hi) {
+  const DF df;
+  const auto N = static_cast<int>(hn::Lanes(df));
+  const VF vlo = hn::Set(df, lo), vhi = hn::Set(df, hi);
+  OutsideCounts c;
+  int i = 0;
+  for (; i + N <= n; i += N) {
+    const VF x = hn::LoadU(df, v + i);
+    c.below += static_cast<int>(hn::CountTrue(df, hn::Lt(x, vlo)));
+    c.above += static_cast<int>(hn::CountTrue(df, hn::Gt(x, vhi)));
+  }
+  for (; i < n; ++i) {
+    c.below += v[i] < lo ? 1 : 0;
+    c.above += v[i] > hi ? 1 : 0;
+  }
+  return c;
+}
+
+// Keeps the values of v[0, n) in [lo, hi], in front, in place; returns how many. The write
+// position never passes the read position, so the compressing store (a whole vector) only
+// overwrites values already loaded.
+HWY_INLINE int keep_inside(float* v, int n, float lo, float hi) {
+  const DF df;
+  const auto N = static_cast<int>(hn::Lanes(df));
+  const VF vlo = hn::Set(df, lo), vhi = hn::Set(df, hi);
+  int m = 0, i = 0;
+  for (; i + N <= n; i += N) {
+    const VF x = hn::LoadU(df, v + i);
+    m += static_cast<int>(hn::CompressStore(x, hn::And(hn::Ge(x, vlo), hn::Le(x, vhi)), df, v + m));
+  }
+  for (; i < n; ++i) {
+    if (v[i] >= lo && v[i] <= hi) v[m++] = v[i];
+  }
+  return m;
+}
+
+// select_kth: Floyd-Rivest-like selection with SIMD passes. Each round sorts a small sample,
+// brackets the k-th by the samples ranked around k, counts the values below and above the
+// bracket (one pass) and keeps the one of the three parts that holds the k-th (a second pass,
+// in place). Neither pass branches on the data, unlike nth_element's partition, whose
+// comparisons on real residuals mispredict.
+float SelectKth(float* v, int n, int k) {
+  constexpr int kSmall = 64;    // from this many values down, nth_element is the faster finish
+  constexpr int kSamples = 32;  // the sample sorted each round
+  constexpr int kSpread = 3;    // sample ranks either side of k's (bracket ~ 1/5 of the values)
+  while (n > kSmall) {
+    std::array<float, kSamples> s{};
+    for (int j = 0; j < kSamples; ++j) {
+      s[static_cast<std::size_t>(j)] =
+          v[static_cast<std::size_t>((2 * j + 1) * static_cast<std::int64_t>(n) / (2 * kSamples))];
+    }
+    std::sort(s.begin(), s.end());
+    const auto r = static_cast<int>(static_cast<std::int64_t>(k) * kSamples / n);
+    const float lo = s[static_cast<std::size_t>(std::max(r - kSpread, 0))];
+    const float hi = s[static_cast<std::size_t>(std::min(r + kSpread, kSamples - 1))];
+    const OutsideCounts c = count_outside(v, n, lo, hi);
+    int kept = 0;
+    if (k < c.below) {
+      kept = keep_inside(v, n, -std::numeric_limits<float>::infinity(),
+                         std::nextafter(lo, -std::numeric_limits<float>::infinity()));
+    } else if (k >= n - c.above) {
+      k -= n - c.above;
+      kept = keep_inside(v, n, std::nextafter(hi, std::numeric_limits<float>::infinity()),
+                         std::numeric_limits<float>::infinity());
+    } else {
+      if (lo == hi) return lo;  // every value in the bracket is the k-th
+      k -= c.below;
+      kept = keep_inside(v, n, lo, hi);
+    }
+    if (kept == n) break;  // no progress (the sample spans the values): nth_element finishes
+    n = kept;
+  }
+  std::nth_element(v, v + k, v + n);
+  return v[k];
+}
+
 const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
 
 }  // namespace kestrel::odometry::kernels::HWY_NAMESPACE
@@ -431,6 +531,8 @@ HWY_EXPORT(WarpPointToPlane);
 HWY_EXPORT(TukeyCostSum);
 HWY_EXPORT(TukeyWeights);
 HWY_EXPORT(BracketAbs);
+HWY_EXPORT(GatherAbsValid);
+HWY_EXPORT(SelectKth);
 HWY_EXPORT(NormalEquations6);
 HWY_EXPORT(NormalEquations8);
 HWY_EXPORT(TargetName);
@@ -458,6 +560,12 @@ WeightSums tukey_weights(const float* residual, const std::uint8_t* valid, int c
                          float inv_sigma, float c, float* weight) {
   return HWY_DYNAMIC_DISPATCH(TukeyWeights)(residual, valid, count, inv_sigma, c, weight);
 }
+
+int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count, float* out) {
+  return HWY_DYNAMIC_DISPATCH(GatherAbsValid)(residual, valid, count, out);
+}
+
+float select_kth(float* v, int n, int k) { return HWY_DYNAMIC_DISPATCH(SelectKth)(v, n, k); }
 
 AbsMedian abs_median(const float* residual, const std::uint8_t* valid, int count, float hint,
                      float* scratch) {

@@ -4,8 +4,6 @@
 #include "alignment_kernels_reference.hpp"
 
 #include <algorithm>
-#include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 
@@ -211,7 +209,8 @@ WeightSums tukey_weights_scalar(const float* residual, const std::uint8_t* valid
   return tukey_weights_range(residual, valid, 0, count, inv_sigma, c, weight);
 }
 
-int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count, float* out) {
+int gather_abs_valid_scalar(const float* residual, const std::uint8_t* valid, int count,
+                            float* out) {
   int m = 0;
   for (int i = 0; i < count; ++i) {
     out[m] = std::fabs(residual[i]);
@@ -220,44 +219,7 @@ int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count
   return m;
 }
 
-namespace {
-
-// One digit of select_kth's radix selection: counts the n candidates' digits (Bits wide, from bit
-// `shift` up), moves k into the bucket holding the k-th and keeps that bucket's values in front.
-// Returns how many it kept.
-template <int Bits>
-int keep_bucket_of_kth(float* v, int n, int& k, int shift) {
-  constexpr std::uint32_t kMask = (1U << Bits) - 1U;
-  std::array<int, std::size_t{1} << Bits> count{};
-  for (int i = 0; i < n; ++i) ++count[(std::bit_cast<std::uint32_t>(v[i]) >> shift) & kMask];
-  std::uint32_t bucket = 0;
-  while (k >= count[bucket]) k -= count[bucket++];
-  int kept = 0;
-  for (int i = 0; i < n; ++i) {
-    const float x = v[i];
-    v[kept] = x;
-    kept += ((std::bit_cast<std::uint32_t>(x) >> shift) & kMask) == bucket ? 1 : 0;
-  }
-  return kept;
-}
-
-}  // namespace
-
-// Radix selection: non-negative IEEE-754 floats order like their bits read as unsigned integers,
-// so the k-th value is found digit by digit from the top: the 8 exponent bits with the top 3 of
-// the mantissa (residuals span few octaves: the exponent alone would split them little), then
-// 8, 8 and the last 4 mantissa bits. Each pass counts the candidates' digits and keeps the
-// bucket holding the k-th: no comparison the branch predictor has to guess, where nth_element on
-// the residuals of real frames mispredicts its way to ~6-10 ns a value.
-float select_kth(float* v, int n, int k) {
-  constexpr int kSmall = 48;  // from this many candidates down, nth_element is the faster finish
-  if (n > kSmall) n = keep_bucket_of_kth<11>(v, n, k, 20);
-  if (n > kSmall) n = keep_bucket_of_kth<8>(v, n, k, 12);
-  if (n > kSmall) n = keep_bucket_of_kth<8>(v, n, k, 4);
-  if (n > kSmall) {
-    keep_bucket_of_kth<4>(v, n, k, 0);
-    return v[0];  // the candidates left share every bit: they are equal
-  }
+float select_kth_scalar(float* v, int n, int k) {
   std::nth_element(v, v + k, v + n);
   return v[k];
 }

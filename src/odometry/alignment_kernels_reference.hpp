@@ -32,8 +32,4 @@ struct MedianBracket {
 void bracket_range(const float* residual, const std::uint8_t* valid, int begin, int count, float lo,
                    float hi, MedianBracket& b, float* scratch);
 
-/// The element at index k of the n values in v, sorted ascending; the values are >= 0 (absolute
-/// residuals). Reorders v.
-float select_kth(float* v, int n, int k);
-
 }  // namespace kestrel::odometry::kernels

@@ -375,11 +375,79 @@ TEST(AlignmentKernels, TukeySumsMatchThePerPointFunctions) {
 TEST(AlignmentKernels, AbsoluteResidualsOfValidPointsArePacked) {
   const std::vector<float> r = {-1.0F, 2.0F, -3.0F, 4.0F, -5.0F};
   const std::vector<std::uint8_t> valid = {1, 0, 1, 0, 1};
-  std::vector<float> out(r.size());
-  ASSERT_EQ(gather_abs_valid(r.data(), valid.data(), 5, out.data()), 3);
-  EXPECT_EQ(out[0], 1.0F);
-  EXPECT_EQ(out[1], 3.0F);
-  EXPECT_EQ(out[2], 5.0F);
+  on_every_simd_target([&] {
+    std::vector<float> out(r.size());
+    ASSERT_EQ(gather_abs_valid(r.data(), valid.data(), 5, out.data()), 3);
+    EXPECT_EQ(out[0], 1.0F);
+    EXPECT_EQ(out[1], 3.0F);
+    EXPECT_EQ(out[2], 5.0F);
+  });
+}
+
+// The packing against its scalar reference, in order, on counts around the SIMD widths, all or
+// none valid, and with the compressing store's whole-vector writes ending at the buffer's end.
+TEST(AlignmentKernels, PackingEqualsTheScalarReference) {
+  on_every_simd_target([&] {
+    std::mt19937 rng(11);
+    std::normal_distribution<float> noise(0.0F, 1.0F);
+    for (const int n : {0, 1, 15, 16, 17, 31, 33, 100, 6001}) {
+      for (const double p_valid : {0.0, 0.3, 1.0}) {
+        std::bernoulli_distribution keep(p_valid);
+        std::vector<float> r(static_cast<std::size_t>(n));
+        std::vector<std::uint8_t> valid(r.size());
+        for (std::size_t i = 0; i < r.size(); ++i) {
+          r[i] = noise(rng);
+          valid[i] = keep(rng) ? 1 : 0;
+        }
+        std::vector<float> got(r.size()), expected(r.size());
+        const int m = gather_abs_valid(r.data(), valid.data(), n, got.data());
+        ASSERT_EQ(m, gather_abs_valid_scalar(r.data(), valid.data(), n, expected.data()));
+        got.resize(static_cast<std::size_t>(m));
+        expected.resize(static_cast<std::size_t>(m));
+        EXPECT_EQ(got, expected) << "n " << n << " valid " << p_valid;
+      }
+    }
+  });
+}
+
+// select_kth against a sort, for the first, last, middle and random ranks, on shapes that stress
+// its sampled brackets: all equal, a few distinct values, values a few ulps apart, half zeros,
+// twelve decades of magnitude, negatives, sorted and reversed input, denormals.
+TEST(AlignmentKernels, SelectionEqualsTheSortedElement) {
+  on_every_simd_target([&] {
+    std::mt19937 rng(5);
+    std::lognormal_distribution<float> wide(0.0F, 6.0F);
+    std::uniform_int_distribution<int> ulps(0, 300), few(0, 3);
+    std::bernoulli_distribution coin(0.5);
+    for (const int n : {1, 2, 63, 64, 65, 500, 6001, 20000}) {
+      for (int shape = 0; shape < 9; ++shape) {
+        std::vector<float> v(static_cast<std::size_t>(n));
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          float& x = v[i];
+          if (shape == 0) x = 0.125F;
+          if (shape == 1) x = static_cast<float>(few(rng));
+          if (shape == 2)
+            x = 1.0F + static_cast<float>(ulps(rng)) * std::numeric_limits<float>::epsilon();
+          if (shape == 3) x = coin(rng) ? 0.0F : wide(rng);
+          if (shape == 4) x = wide(rng);
+          if (shape == 5) x = coin(rng) ? -wide(rng) : wide(rng);
+          if (shape == 6) x = static_cast<float>(i);
+          if (shape == 7) x = -static_cast<float>(i);
+          if (shape == 8)
+            x = static_cast<float>(ulps(rng)) * std::numeric_limits<float>::denorm_min();
+        }
+        std::vector<float> sorted = v;
+        std::sort(sorted.begin(), sorted.end());
+        std::uniform_int_distribution<int> any(0, n - 1);
+        for (const int k : {0, n - 1, n / 2, any(rng), any(rng)}) {
+          std::vector<float> work = v, ref = v;
+          EXPECT_EQ(select_kth(work.data(), n, k), sorted[static_cast<std::size_t>(k)])
+              << "n " << n << " shape " << shape << " k " << k;
+          EXPECT_EQ(select_kth_scalar(ref.data(), n, k), sorted[static_cast<std::size_t>(k)]);
+        }
+      }
+    }
+  });
 }
 
 // abs_median against packing + nth_element (what robust_sigma selects) for hints inside the
@@ -426,10 +494,10 @@ TEST(AlignmentKernels, AbsMedianIsTheUpperMedianWhateverTheHint) {
   });
 }
 
-// The selection finds the median digit by digit of the floats' bits: shapes that stop it at
-// each digit (all values equal, values a few ulps apart, half zeros, denormals, twelve decades
-// of magnitude), on sizes below and above where it hands over to nth_element.
-TEST(AlignmentKernels, AbsMedianOnEveryDigitOfTheFloatBits) {
+// abs_median on shapes that are hard for a selection (all values equal, values a few ulps
+// apart, half zeros, denormals, twelve decades of magnitude), on sizes below and above where it
+// hands over to nth_element.
+TEST(AlignmentKernels, AbsMedianOnHardShapes) {
   std::mt19937 rng(3);
   std::lognormal_distribution<float> wide(0.0F, 6.0F);
   std::uniform_int_distribution<int> ulps(0, 300);

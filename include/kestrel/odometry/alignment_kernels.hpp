@@ -113,6 +113,15 @@ WeightSums tukey_weights_scalar(const float* residual, const std::uint8_t* valid
 /// Writes |r_i| of the valid points, packed, to `out`; returns how many (the input of
 /// robust_sigma, thesis eq. 3.40).
 int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count, float* out);
+/// The reference implementation (one point at a time).
+int gather_abs_valid_scalar(const float* residual, const std::uint8_t* valid, int count,
+                            float* out);
+
+/// The element at index k (0 <= k < n) of the n values in v sorted ascending (no NaN); reorders
+/// v. The median of robust_sigma and abs_median (thesis eq. 3.40), and of the depth levels.
+float select_kth(float* v, int n, int k);
+/// The reference implementation.
+float select_kth_scalar(float* v, int n, int k);
 
 struct AbsMedian {
   float median = 0.0F;  ///< the element at m / 2 of the valid points' sorted |r| (0 if m = 0)
