@@ -13,12 +13,27 @@
 #include "kestrel/flight/flight_simulation.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/io/output_guard.hpp"
+#include "kestrel/io/yaml_file.hpp"
 #include "kestrel/sim/scenes.hpp"
 #include "option_checks.hpp"
 #include "progress.hpp"
 
 namespace kestrel::cli {
 namespace {
+
+// FlightSimulation sets SafetyOptions::hold_flies_mission from its mission clock (a clock that
+// eases to a stop in a hold needs a hold that flies it). A safety file that asks for the other
+// value is told so, rather than silently overridden.
+void warn_if_hold_is_overridden(const std::string& safety_yaml, bool pause_mission_in_hold) {
+  const YAML::Node root = io::load_yaml_file(safety_yaml);
+  const YAML::Node safety = root.IsMap() && root["safety"] ? root["safety"] : root;
+  if (!safety.IsMap() || !safety["hold_flies_mission"]) return;
+  if (safety["hold_flies_mission"].as<bool>() == pause_mission_in_hold) return;
+  std::cerr << "kestrel fly: warning: " << safety_yaml << ": hold_flies_mission is "
+            << (pause_mission_in_hold ? "true" : "false") << " in this flight, not the file's "
+            << (pause_mission_in_hold ? "false" : "true")
+            << ": kestrel fly sets it with its mission clock (--mission-runs-in-hold: false)\n";
+}
 
 struct FlyArgs {
   std::string scenario = "hover";
@@ -63,7 +78,10 @@ void run_fly(const FlyArgs& a) {
     options.controller = control::PositionControllerOptions::load(a.controller_yaml);
   }
   if (!a.imu_yaml.empty()) options.imu_noise = io::load_imu_noise(a.imu_yaml);
-  if (!a.safety_yaml.empty()) options.safety = control::SafetyOptions::load(a.safety_yaml);
+  if (!a.safety_yaml.empty()) {
+    options.safety = control::SafetyOptions::load(a.safety_yaml);
+    warn_if_hold_is_overridden(a.safety_yaml, options.pause_mission_in_hold);
+  }
   if (!a.tracker_yaml.empty()) {
     options.vision.tracker = odometry::DirectTrackerOptions::load(a.tracker_yaml);
   }

@@ -65,6 +65,21 @@ TEST_F(CmdFly, RefusesAFolderOfOtherFiles) {
   EXPECT_EQ(kestrel::test::slurp(dir_ / "mine" / "notes.txt"), "precious\n");
 }
 
+// A safety file's hold_flies_mission that the flight's mission clock overrides is named in a
+// warning; one that agrees with it is not.
+TEST_F(CmdFly, OverriddenHoldSettingIsWarnedAbout) {
+  { std::ofstream(dir_ / "safety.yaml") << "safety:\n  hold_flies_mission: false\n"; }
+  const std::string safety = " --safety " + out("safety.yaml");
+  const RunResult r = run("fly --scenario hover --duration 0.2" + safety + " --out " + out("a"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("safety.yaml: hold_flies_mission is true in this flight"), std::string::npos)
+      << r.err;
+  const RunResult agree = run("fly --scenario hover --duration 0.2 --mission-runs-in-hold" +
+                              safety + " --out " + out("b"));
+  ASSERT_EQ(agree.exit_code, 0) << agree.err;
+  EXPECT_EQ(agree.err.find("hold_flies_mission"), std::string::npos) << agree.err;
+}
+
 // --stereo-matcher picks the vision's matcher (the start-up line names it); a bad name, or SGM
 // options without sgm, is an error naming the flag.
 TEST_F(CmdFly, StereoMatcherSelectsTheMatcher) {
