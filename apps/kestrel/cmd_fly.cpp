@@ -209,8 +209,8 @@ void add_fly_command(CLI::App& app) {
                   "Camera-to-filter latency in seconds (default 0.040)")
       ->check(number_in(0.0, 1.0, "a latency in [0, 1] s"));
   cmd->add_option("--adaptive-vo-noise", args->adaptive_vo_noise,
-                  "Scale the odometry covariance online from the updates' NIS: on|off "
-                  "(docs/fusion.md, \"Adaptive odometry covariance\")")
+                  "Scale the odometry covariance online from the updates' NIS: on|off, on "
+                  "by default (docs/fusion.md, \"Adaptive odometry covariance\")")
       ->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--adaptive-vo-noise-max-scale", args->adaptive_vo_noise_max_scale,
                   "Upper bound of that scale (0: the gate over the degrees of freedom, 3.74)")
