@@ -51,7 +51,9 @@ struct FlyArgs {
   std::string projector;
   std::string vo_reference;
   std::string vehicle_yaml, controller_yaml, imu_yaml, safety_yaml, tracker_yaml, matcher_yaml;
-  std::string stereo_matcher, sgm_yaml;  // --stereo-matcher sad|census|sgm, --sgm-options FILE
+  std::string stereo_matcher, sgm_yaml;       // --stereo-matcher sad|census|sgm, --sgm-options FILE
+  std::string adaptive_vo_noise;              // on|off; empty: the fusion's default
+  double adaptive_vo_noise_max_scale = -1.0;  // < 0: the fusion's default
 };
 
 void run_fly(const FlyArgs& a) {
@@ -109,6 +111,12 @@ void run_fly(const FlyArgs& a) {
     } catch (const std::invalid_argument& e) {
       throw InputError(std::string("fly: --vo-reference: ") + e.what());
     }
+  }
+  if (!a.adaptive_vo_noise.empty()) {
+    options.fusion.adaptive_vo_noise.enabled = a.adaptive_vo_noise == "on";
+  }
+  if (a.adaptive_vo_noise_max_scale >= 0.0) {
+    options.fusion.adaptive_vo_noise.max_scale = a.adaptive_vo_noise_max_scale;
   }
   if (a.latency_s >= 0.0) options.vision_latency_s = a.latency_s;
   if (a.vo_off_at_s >= 0.0) {
@@ -218,6 +226,13 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--latency", args->latency_s,
                   "Camera-to-filter latency in seconds (default 0.040)")
       ->check(number_in(0.0, 1.0, "a latency in [0, 1] s"));
+  cmd->add_option("--adaptive-vo-noise", args->adaptive_vo_noise,
+                  "Scale the odometry covariance online from the updates' NIS: on|off, on "
+                  "by default (docs/fusion.md, \"Adaptive odometry covariance\")")
+      ->check(CLI::IsMember({"on", "off"}));
+  cmd->add_option("--adaptive-vo-noise-max-scale", args->adaptive_vo_noise_max_scale,
+                  "Upper bound of that scale (0: the gate over the degrees of freedom, 3.74)")
+      ->check(number_in(0.0, 1.0e6, "0 or a scale in [1, 1e6]"));
   cmd->add_option("--vo-reference", args->vo_reference,
                   "What each odometry measurement to the EKF is relative to: keyframe (default) "
                   "or previous_frame (docs/flight.md compares them)");

@@ -272,7 +272,9 @@ FlightCounters FlightLoop::counters() const {
 
 }  // namespace
 
-FlightOptions::FlightOptions() : imu_noise(sim::default_vehicle_imu_noise()) {}
+FlightOptions::FlightOptions() : imu_noise(sim::default_vehicle_imu_noise()) {
+  fusion.adaptive_vo_noise.enabled = true;
+}
 
 void FlightOptions::validate() const {
   if (!(physics_rate_hz > 0.0) || !(control_rate_hz > 0.0) || !(camera_rate_hz > 0.0)) {

@@ -1,6 +1,7 @@
 // FusionEngine: buffering, initialisation, gating and dropout bookkeeping around the EKF.
 #include "kestrel/fusion/fusion_engine.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -74,8 +75,19 @@ std::string FusionOptions::describe() const {
     << "s max_speed=" << max_speed_m_s << "m/s max_jump=" << max_position_jump_m
     << "m reorder=" << reorder_window_s << "s static_init=" << static_init_s
     << "s first_estimates=" << (first_estimate_jacobians ? "on" : "off")
-    << " reanchor_after_gate=" << (reanchor_after_gate ? "on" : "off") << " T_body_cam.t=["
-    << T_body_cam.translation().transpose() << "]";
+    << " reanchor_after_gate=" << (reanchor_after_gate ? "on" : "off")
+    << " adaptive_vo_noise=" << (adaptive_vo_noise.enabled ? "on" : "off");
+  if (adaptive_vo_noise.enabled) {
+    s << " (window " << adaptive_vo_noise.window_updates << ", scale in ["
+      << adaptive_vo_noise.min_scale << ", ";
+    if (adaptive_vo_noise.max_scale > 0.0) {
+      s << adaptive_vo_noise.max_scale;
+    } else {
+      s << "gate/6";
+    }
+    s << "])";
+  }
+  s << " T_body_cam.t=[" << T_body_cam.translation().transpose() << "]";
   return s.str();
 }
 
@@ -118,6 +130,7 @@ void FusionOptions::validate() const {
                      std::to_string(gate_probability));
   }
   if (!(reorder_window_s >= 0.0)) throw InputError("reorder_window_s: must be >= 0");
+  adaptive_vo_noise.validate();
 }
 
 Matrix15d FusionOptions::initial_covariance() const {
@@ -158,6 +171,10 @@ std::string FusionCounters::describe() const {
     << " vo_late=" << measurements_dropped_late << " vo_before_init=" << measurements_before_init
     << " vo_outside_imu=" << measurements_outside_imu << " implausible=" << implausible_outputs
     << " mean_nis=" << mean_nis();
+  if (vo_noise_scale_max > 0.0) {
+    s << " vo_noise_scale_mean=" << mean_vo_noise_scale()
+      << " vo_noise_scale_max=" << vo_noise_scale_max;
+  }
   return s.str();
 }
 
@@ -247,6 +264,11 @@ FusionEngine::FusionEngine(FusionOptions options)
   ekf_.set_first_estimate_jacobians(options_.first_estimate_jacobians);
   gate_chi2_ =
       options_.gate_probability > 0.0 ? chi_square_quantile(options_.gate_probability, 6.0) : 0.0;
+  if (options_.adaptive_vo_noise.enabled) {
+    // The NIS cap is the gate; without a gate, the default gate's level.
+    const double cap = gate_chi2_ > 0.0 ? gate_chi2_ : chi_square_quantile(0.999, 6.0);
+    vo_noise_scale_.emplace(options_.adaptive_vo_noise, cap, 6);
+  }
 }
 
 void FusionEngine::initialize(const NominalState& state) {
@@ -448,9 +470,16 @@ void FusionEngine::process_measurement(const RelativePoseMeasurement& m,
     const SE3& T_bc = options_.T_body_cam;
     const SE3 T_body = T_bc * rebased.T_ref_cur * T_bc.inverse();
     const Matrix6d Ad = T_bc.adjoint();
-    const Matrix6d cov = Ad * rebased.covariance * Ad.transpose();
+    const double scale = vo_noise_scale();
+    const Matrix6d cov = scale * (Ad * rebased.covariance * Ad.transpose());
     const UpdateResult r = ekf_.update(T_body, cov, gate_chi2_);
     last_update_ = r;
+    if (vo_noise_scale_ && r.outcome != UpdateOutcome::kRejectedInvalid) {
+      // Accepted and gated alike: a gated NIS is the evidence that the covariance is too small.
+      counters_.vo_noise_scale_sum += scale;
+      counters_.vo_noise_scale_max = std::max(counters_.vo_noise_scale_max, scale);
+      vo_noise_scale_->add(r.mahalanobis_sq, scale);
+    }
     switch (r.outcome) {
       case UpdateOutcome::kAccepted:
         ++counters_.updates_accepted;

@@ -93,6 +93,7 @@ const std::map<std::string, std::string>& good_values_without_default() {
       {"kestrel fly --latency", "0.04"},
       {"kestrel fly --vo-off-at", "10"},
       {"kestrel fly --vo-off-for", "2"},
+      {"kestrel fly --adaptive-vo-noise-max-scale", "16"},
       {"kestrel fuse --imu-noise-inflation", "15"},
       {"kestrel lab fuse-eval --time-offset-ms", "15"},
       {"kestrel lab fuse-eval --extrinsic-sigma-deg", "2"},
@@ -228,6 +229,10 @@ TEST_F(OptionRanges, FlyRefusesDurationsAndLatenciesOutsideTheirSense) {
   expect_refused("fly --scenario hover --latency -1", "--latency");
   expect_refused("fly --scenario hover --latency 5", "--latency");
   expect_refused("fly --scenario hover --vo-off-at 1 --vo-off-for 0", "--vo-off-for");
+  expect_refused("fly --scenario hover --adaptive-vo-noise-max-scale -1",
+                 "--adaptive-vo-noise-max-scale");
+  expect_refused("fly --scenario hover --adaptive-vo-noise-max-scale nan",
+                 "--adaptive-vo-noise-max-scale");
 }
 
 TEST_F(OptionRanges, StereoOdometryRefusesAnEmptyDisparityRangeAndBadWindows) {

@@ -63,7 +63,9 @@ struct FlightOptions {
   StereoVisionOptions vision;
   /// Noise densities and T_body_cam are taken from imu_noise and vision; the reorder window
   /// is raised to the longest vision latency (with the world's jitter and time offset) + 10 ms
-  /// if it is shorter (the filter must wait for the camera's measurements).
+  /// if it is shorter (the filter must wait for the camera's measurements). The odometry
+  /// covariance's online scale (adaptive_vo_noise) is on in flight (docs/flight.md, "An adaptive
+  /// odometry covariance").
   fusion::FusionOptions fusion;
   control::PositionControllerOptions controller;
   control::PwmMapperOptions pwm;

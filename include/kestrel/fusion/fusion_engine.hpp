@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "kestrel/fusion/adaptive_noise.hpp"
 #include "kestrel/fusion/stochastic_cloning_ekf.hpp"
 #include "kestrel/io/euroc.hpp"
 
@@ -102,6 +103,10 @@ struct FusionOptions {
   /// that one odometry jump against a kept keyframe does not get every later measurement from
   /// it gated; a single outlier is only rejected.
   bool reanchor_after_gate = true;
+  /// An online scale on the odometry's covariance from the NIS of the recent updates, gated ones
+  /// included (fusion/adaptive_noise.hpp; docs/fusion.md, "Adaptive odometry covariance"): the
+  /// filter's R follows the scene instead of one fixed covariance_scale for every scene.
+  AdaptiveNoiseOptions adaptive_vo_noise;
 
   /// The YAML fields (io/option_fields.hpp). The noise densities carry the EuRoC sensor.yaml
   /// names; T_body_cam is a calibration, not an option, and is not among them.
@@ -138,6 +143,10 @@ struct FusionOptions {
     v("init_sigma_accel_bias_m_s2", init_sigma_accel_bias_m_s2);
     v("first_estimate_jacobians", first_estimate_jacobians);
     v("reanchor_after_gate", reanchor_after_gate);
+    v("adaptive_vo_noise", adaptive_vo_noise.enabled);
+    v("adaptive_vo_noise_window", adaptive_vo_noise.window_updates);
+    v("adaptive_vo_noise_min_scale", adaptive_vo_noise.min_scale);
+    v("adaptive_vo_noise_max_scale", adaptive_vo_noise.max_scale);
   }
 
   /// Loads the fields present in a YAML map (unknown keys are errors naming the file).
@@ -218,6 +227,14 @@ struct FusionCounters {
   /// Sum of r^T S^-1 r over the accepted updates: its mean (mean_nis()) is 6 for a consistent
   /// filter, above it when the filter trusts the IMU or the odometry more than they deserve.
   double nis_sum_accepted = 0.0;
+  /// The adaptive odometry covariance scale (FusionOptions::adaptive_vo_noise) over the updates
+  /// it was applied to (accepted and gated): its sum and largest value; 0 when it is off.
+  double vo_noise_scale_sum = 0.0;
+  double vo_noise_scale_max = 0.0;
+  [[nodiscard]] double mean_vo_noise_scale() const {
+    const std::size_t n = updates_accepted + updates_gated;
+    return n > 0 ? vo_noise_scale_sum / static_cast<double>(n) : 0.0;
+  }
   [[nodiscard]] double mean_nis() const {
     return updates_accepted > 0 ? nis_sum_accepted / static_cast<double>(updates_accepted) : 0.0;
   }
@@ -255,6 +272,10 @@ class FusionEngine {
   }
   /// The UpdateResult of the last odometry measurement processed.
   [[nodiscard]] const std::optional<UpdateResult>& last_update() const { return last_update_; }
+  /// The scale the next odometry covariance is multiplied by (1 when adaptive_vo_noise is off).
+  [[nodiscard]] double vo_noise_scale() const {
+    return vo_noise_scale_ ? vo_noise_scale_->scale() : 1.0;
+  }
 
  private:
   void process_until(TimeNs t_ns, bool imu_rate, std::vector<FusedState>& out);
@@ -293,6 +314,7 @@ class FusionEngine {
     Matrix6d covariance = Matrix6d::Zero();
   };
   std::optional<KeyframeAnchor> anchor_;
+  std::optional<NisNoiseScale> vo_noise_scale_;  ///< set when adaptive_vo_noise.enabled
   int gated_in_a_row_ = 0;  ///< gated measurements from the kept keyframe since the last accepted
 };
 
