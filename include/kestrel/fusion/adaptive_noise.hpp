@@ -28,11 +28,10 @@ namespace kestrel::fusion {
 
 /// Options of the online scale (FusionOptions' `adaptive_vo_noise*` YAML keys).
 struct AdaptiveNoiseOptions {
-  /// Off here, on in the closed-loop flight (FlightOptions): there it took the corridor's gated
-  /// updates from 31-55 % to 13-35 % and flew the corridor better on every seed, the other
-  /// missions within their targets (docs/flight.md, "An adaptive odometry covariance"). Offline,
-  /// where the odometry's covariance is known (the simulator's, EuRoC's 1 cm / 0.5 deg), it
-  /// slowed the simulated time offset's convergence past its regression guard (docs/fusion.md).
+  /// Off here, on in the closed-loop flight (FlightOptions), whose odometry misreports its
+  /// covariance by a factor that changes with the scene; offline, where the odometry's
+  /// covariance is known, it only slows the time offset's convergence. The measurements:
+  /// docs/flight.md, "An adaptive odometry covariance", and docs/fusion.md.
   bool enabled = false;
   /// The exponential mean's time constant, in updates (alpha = 1 / window_updates). 30: one
   /// second of a 30 Hz camera; the per-update NIS / dof of 6 dof has a std of 0.58, so the
