@@ -110,42 +110,44 @@ using DI = hn::RebindToSigned<DF>;
 using DU8 = hn::Rebind<std::uint8_t, DF>;
 using VF = hn::Vec<DF>;
 
-// One full vector of bytes per channel (4 float vectors of pixels): the de-interleaving
-// shuffles are shared by 4x the pixels, and b + g + r (<= 765) is summed in 16-bit lanes.
-// (The one-lane scalar target has no halves: it leaves every pixel to the loop below.)
+// Four pixels to each 16-byte block: a lane permutation of 32-bit words (the 12 bytes of a
+// block's 4 pixels are 3 whole words) moves them in; two in-block byte lookups give each pixel's
+// 32-bit lane the 16-bit pairs (b, g) and (r, 0), whose sum (b + r, g) one widening multiply-add
+// by (1, 1) turns into b + g + r. Fewer vector operations than de-interleaving whole vectors
+// and widening each channel. The load reads 4 bytes per pixel from 3 x: it stops where that
+// would pass the row's end.
 #if HWY_TARGET == HWY_SCALAR
-HWY_INLINE int BgrToIntensityFullVectors(const std::uint8_t* /*bgr*/, float* /*out*/,
-                                         int /*width*/) {
+HWY_INLINE int BgrToIntensityWords(const std::uint8_t* /*bgr*/, float* /*out*/, int /*width*/) {
   return 0;
 }
 #else
-HWY_INLINE int BgrToIntensityFullVectors(const std::uint8_t* bgr, float* out, int width) {
-  const hn::ScalableTag<std::uint8_t> d8;
-  const hn::Half<decltype(d8)> dh8;
-  const hn::RepartitionToWide<decltype(d8)> d16;
-  const hn::Half<decltype(d16)> dh16;
-  const hn::RepartitionToWide<decltype(d16)> d32;
-  const DF df;
-  const int n8 = static_cast<int>(hn::Lanes(d8));
-  const int n32 = static_cast<int>(hn::Lanes(d32));
-  const VF scale = hn::Set(df, kIntensityScale);
-  const auto store = [&](hn::Vec<decltype(d32)> sum, float* o) {
-    hn::StoreU(hn::Mul(hn::ConvertTo(df, hn::BitCast(DI(), sum)), scale), df, o);
-  };
+HWY_INLINE int BgrToIntensityWords(const std::uint8_t* bgr, float* out, int width) {
+  const hn::ScalableTag<std::int32_t> d32;
+  const hn::Repartition<std::uint8_t, decltype(d32)> d8;
+  const hn::Repartition<std::int16_t, decltype(d32)> d16;
+  const hn::Rebind<float, decltype(d32)> df;
+  const int n = static_cast<int>(hn::Lanes(d32));
+  HWY_ALIGN std::int32_t words[HWY_MAX_BYTES / sizeof(std::int32_t)] = {};
+  for (int j = 0; j < n; ++j) words[j] = j % 4 == 3 ? 0 : j / 4 * 3 + j % 4;
+  const auto to_blocks = hn::SetTableIndices(d32, words);
+  constexpr std::uint8_t Z = 0x80;  // a lookup index with its top bit set gives 0
+  alignas(16) static constexpr std::uint8_t kBG[16] = {0, Z, 1, Z, 3, Z, 4,  Z,
+                                                       6, Z, 7, Z, 9, Z, 10, Z};
+  alignas(16) static constexpr std::uint8_t kR[16] = {2, Z, Z, Z, 5,  Z, Z, Z,
+                                                      8, Z, Z, Z, 11, Z, Z, Z};
+  const auto ibg = hn::LoadDup128(d8, kBG), ir = hn::LoadDup128(d8, kR);
+  const auto ones = hn::Set(d16, 1);
+  const auto scale = hn::Set(df, kIntensityScale);
   int x = 0;
-  for (; x + n8 <= width; x += n8) {
-    hn::Vec<decltype(d8)> b, g, r;
-    hn::LoadInterleaved3(d8, bgr + 3 * x, b, g, r);
-    const auto lo = hn::Add(hn::Add(hn::PromoteTo(d16, hn::LowerHalf(dh8, b)),
-                                    hn::PromoteTo(d16, hn::LowerHalf(dh8, g))),
-                            hn::PromoteTo(d16, hn::LowerHalf(dh8, r)));
-    const auto hi = hn::Add(hn::Add(hn::PromoteTo(d16, hn::UpperHalf(dh8, b)),
-                                    hn::PromoteTo(d16, hn::UpperHalf(dh8, g))),
-                            hn::PromoteTo(d16, hn::UpperHalf(dh8, r)));
-    store(hn::PromoteTo(d32, hn::LowerHalf(dh16, lo)), out + x);
-    store(hn::PromoteTo(d32, hn::UpperHalf(dh16, lo)), out + x + n32);
-    store(hn::PromoteTo(d32, hn::LowerHalf(dh16, hi)), out + x + 2 * n32);
-    store(hn::PromoteTo(d32, hn::UpperHalf(dh16, hi)), out + x + 3 * n32);
+  for (; 3 * x + 4 * n <= 3 * width; x += n) {
+    const auto px = hn::BitCast(
+        d8, hn::TableLookupLanes(hn::BitCast(d32, hn::LoadU(d8, bgr + 3 * x)), to_blocks));
+    const auto pairs = hn::Add(hn::BitCast(d16, hn::TableLookupBytesOr0(px, ibg)),
+                               hn::BitCast(d16, hn::TableLookupBytesOr0(px, ir)));
+    auto odd = hn::Zero(d32);
+    const auto even = hn::ReorderWidenMulAccumulate(d32, pairs, ones, hn::Zero(d32), odd);
+    const auto sum = hn::RearrangeToOddPlusEven(even, odd);
+    hn::StoreU(hn::Mul(hn::ConvertTo(df, sum), scale), df, out + x);
   }
   return x;
 }
@@ -157,7 +159,7 @@ void BgrToIntensityRow(const std::uint8_t* bgr, float* out, int width) {
   const DU8 du8;
   const int n = static_cast<int>(hn::Lanes(df));
   const VF scale = hn::Set(df, kIntensityScale);
-  int x = BgrToIntensityFullVectors(bgr, out, width);
+  int x = BgrToIntensityWords(bgr, out, width);
   for (; x + n <= width; x += n) {
     hn::Vec<DU8> b, g, r;
     hn::LoadInterleaved3(du8, bgr + 3 * x, b, g, r);
