@@ -107,9 +107,7 @@ void DepthPyramid::build(const cv::Mat& level0_depth_m, int levels, float max_re
   }
   if (in.rows % 2 == 1)
     std::memcpy(l0.ptr<float>(in.rows - 1), in.ptr<float>(in.rows - 1), row_bytes);
-  for (std::size_t l = 2; l < levels_.size(); ++l) {
-    downsample_depth(levels_[l - 1], levels_[l], max_relative_spread);
-  }
+  downsample_from(2, max_relative_spread);
 }
 
 cv::Mat& DepthPyramid::base() {
@@ -120,7 +118,11 @@ cv::Mat& DepthPyramid::base() {
 void DepthPyramid::build_from_base(int levels, float max_relative_spread) {
   if (levels < 1) throw std::invalid_argument("DepthPyramid: levels must be >= 1");
   levels_.resize(static_cast<std::size_t>(levels));
-  for (std::size_t l = 1; l < levels_.size(); ++l) {
+  downsample_from(1, max_relative_spread);
+}
+
+void DepthPyramid::downsample_from(std::size_t first, float max_relative_spread) {
+  for (std::size_t l = first; l < levels_.size(); ++l) {
     downsample_depth(levels_[l - 1], levels_[l], max_relative_spread);
   }
 }

@@ -2,6 +2,7 @@
 // depth pyramids that never average across occlusion boundaries or invalid pixels.
 #pragma once
 
+#include <cstddef>
 #include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
@@ -68,6 +69,9 @@ class DepthPyramid {
   [[nodiscard]] const cv::Mat& level(int l) const { return levels_[static_cast<std::size_t>(l)]; }
 
  private:
+  /// Levels first .. size-1, each halved from the one before.
+  void downsample_from(std::size_t first, float max_relative_spread);
+
   std::vector<cv::Mat> levels_;
 };
 
