@@ -1,8 +1,9 @@
 // The alignment kernels (alignment_kernels.hpp) in portable SIMD: Google Highway compiles this
 // file once per target (foreach_target.h re-includes it), and each public function calls the
 // best target the CPU supports (HWY_DYNAMIC_DISPATCH). The points that do not fill a vector go
-// to the scalar references (alignment_kernels_reference.cpp). The bilinear sample is written
-// with gathers: GCC does not vectorise it on its own ("control flow in loop").
+// to the scalar references (alignment_kernels_reference-inl.h), compiled for the same target.
+// The bilinear sample is written with gathers: GCC does not vectorise it on its own ("control
+// flow in loop").
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "alignment_kernels.cpp"  // NOLINT: this file, found by its folder
 #include "kestrel/odometry/alignment_kernels.hpp"
@@ -19,7 +20,7 @@
 #include <limits>
 #include <utility>
 
-#include "alignment_kernels_reference.hpp"
+#include "alignment_kernels_reference-inl.h"
 
 HWY_BEFORE_NAMESPACE();
 namespace kestrel::odometry::kernels::HWY_NAMESPACE {
@@ -195,7 +196,7 @@ int WarpResiduals(const PointsView& points, const LevelImage& cur, const FloatPo
     inside_count += static_cast<int>(hn::CountTrue(df, p.inside));
   }
   return inside_count +
-         warp_range_scalar(points, cur, T_cur_ref, alpha, beta, i, residual, valid, sampling);
+         reference::warp_range(points, cur, T_cur_ref, alpha, beta, i, residual, valid, sampling);
 }
 
 // Invalid lanes read pixel (0, 0) and are zeroed at the stores.
@@ -248,8 +249,8 @@ int WarpPointToPlane(const PlanePointsView& points, const LevelImage& depth,
     store_valid(m, valid + i);
     count += static_cast<int>(hn::CountTrue(df, m));
   }
-  return count +
-         point_to_plane_range_scalar(points, depth, T_cur_ref, max_spread, i, residual, valid, jac);
+  return count + reference::point_to_plane_range(points, depth, T_cur_ref, max_spread, i, residual,
+                                                 valid, jac);
 }
 
 // Sums of float lanes kept in double lanes (the robust cost of thousands of points).
@@ -314,7 +315,7 @@ double TukeyCostSum(const float* residual, const std::uint8_t* valid, int count,
     // Invalid points cost rho_max.
     sum.add(hn::IfThenElse(load_valid(valid + i), tk.cost(s2, hn::Le(s2, tk.one)), tk.k));
   }
-  return sum.total() + tukey_cost_range(residual, valid, i, count, inv_sigma, c);
+  return sum.total() + reference::tukey_cost_range(residual, valid, i, count, inv_sigma, c);
 }
 
 WeightSums TukeyWeights(const float* residual, const std::uint8_t* valid, int count,
@@ -336,7 +337,7 @@ WeightSums TukeyWeights(const float* residual, const std::uint8_t* valid, int co
     sum.add(hn::IfThenElse(ok, tk.cost(s2, in), tk.k));
     inliers += static_cast<int>(hn::CountTrue(df, hn::And(ok, hn::Lt(s2, tk.one))));
   }
-  WeightSums out = tukey_weights_range(residual, valid, i, count, inv_sigma, c, weight);
+  WeightSums out = reference::tukey_weights_range(residual, valid, i, count, inv_sigma, c, weight);
   out.cost += sum.total();
   out.inliers += inliers;
   return out;
@@ -365,7 +366,7 @@ MedianBracket BracketAbs(const float* residual, const std::uint8_t* valid, int c
       scratch[b.inside++] = std::fabs(residual[i + std::countr_zero(bits)]);
     }
   }
-  bracket_range(residual, valid, i, count, lo, hi, b, scratch);
+  reference::bracket_range(residual, valid, i, count, lo, hi, b, scratch);
   return b;
 }
 
@@ -520,6 +521,40 @@ float SelectKth(float* v, int n, int k) {
 
 const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
 
+// The scalar references' entry points, one per target like the kernels' (the public *_scalar
+// functions below dispatch to them).
+int WarpResidualsScalar(const PointsView& points, const LevelImage& cur, const FloatPose& T_cur_ref,
+                        float alpha, float beta, float* residual, std::uint8_t* valid,
+                        Sampling sampling) {
+  return reference::warp_range(points, cur, T_cur_ref, alpha, beta, 0, residual, valid, sampling);
+}
+int WarpPointToPlaneScalar(const PlanePointsView& points, const LevelImage& depth,
+                           const FloatPose& T_cur_ref, float max_spread, float* residual,
+                           std::uint8_t* valid, float* const* jac) {
+  return reference::point_to_plane_range(points, depth, T_cur_ref, max_spread, 0, residual, valid,
+                                         jac);
+}
+double TukeyCostSumScalar(const float* residual, const std::uint8_t* valid, int count,
+                          float inv_sigma, float c) {
+  return reference::tukey_cost_range(residual, valid, 0, count, inv_sigma, c);
+}
+WeightSums TukeyWeightsScalar(const float* residual, const std::uint8_t* valid, int count,
+                              float inv_sigma, float c, float* weight) {
+  return reference::tukey_weights_range(residual, valid, 0, count, inv_sigma, c, weight);
+}
+int GatherAbsValidScalar(const float* residual, const std::uint8_t* valid, int count, float* out) {
+  return reference::gather_abs_valid(residual, valid, count, out);
+}
+float SelectKthScalar(float* v, int n, int k) { return reference::select_kth(v, n, k); }
+void NormalEquations6Scalar(const float* const* J, int count, const float* w, const float* r,
+                            Matrix8d& H, Vector8d& g) {
+  reference::accumulate_normal_equations<6>(J, count, w, r, H, g);
+}
+void NormalEquations8Scalar(const float* const* J, int count, const float* w, const float* r,
+                            Matrix8d& H, Vector8d& g) {
+  reference::accumulate_normal_equations<8>(J, count, w, r, H, g);
+}
+
 }  // namespace kestrel::odometry::kernels::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
@@ -536,6 +571,21 @@ HWY_EXPORT(SelectKth);
 HWY_EXPORT(NormalEquations6);
 HWY_EXPORT(NormalEquations8);
 HWY_EXPORT(TargetName);
+HWY_EXPORT(WarpResidualsScalar);
+HWY_EXPORT(WarpPointToPlaneScalar);
+HWY_EXPORT(TukeyCostSumScalar);
+HWY_EXPORT(TukeyWeightsScalar);
+HWY_EXPORT(GatherAbsValidScalar);
+HWY_EXPORT(SelectKthScalar);
+HWY_EXPORT(NormalEquations6Scalar);
+HWY_EXPORT(NormalEquations8Scalar);
+
+FloatPose FloatPose::from(const SE3& T) {
+  const Eigen::Matrix3f R = T.rotation_matrix().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  return {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
+          R(2, 0), R(2, 1), R(2, 2), t.x(),   t.y(),   t.z()};
+}
 
 int warp_residuals(const PointsView& points, const LevelImage& cur, const FloatPose& T_cur_ref,
                    float alpha, float beta, float* residual, std::uint8_t* valid,
@@ -600,6 +650,53 @@ template <>
 void accumulate_normal_equations<8>(const float* const* J, int count, const float* w,
                                     const float* r, Matrix8d& H, Vector8d& g) {
   HWY_DYNAMIC_DISPATCH(NormalEquations8)(J, count, w, r, H, g);
+}
+
+// The scalar references, on the target the kernels run on (hwy::SetSupportedTargetsForTest
+// selects both).
+int warp_residuals_scalar(const PointsView& points, const LevelImage& cur,
+                          const FloatPose& T_cur_ref, float alpha, float beta, float* residual,
+                          std::uint8_t* valid, Sampling sampling) {
+  return HWY_DYNAMIC_DISPATCH(WarpResidualsScalar)(points, cur, T_cur_ref, alpha, beta, residual,
+                                                   valid, sampling);
+}
+
+int warp_point_to_plane_scalar(const PlanePointsView& points, const LevelImage& depth,
+                               const FloatPose& T_cur_ref, float max_spread, float* residual,
+                               std::uint8_t* valid, float* const* jac) {
+  return HWY_DYNAMIC_DISPATCH(WarpPointToPlaneScalar)(points, depth, T_cur_ref, max_spread,
+                                                      residual, valid, jac);
+}
+
+double tukey_cost_sum_scalar(const float* residual, const std::uint8_t* valid, int count,
+                             float inv_sigma, float c) {
+  return HWY_DYNAMIC_DISPATCH(TukeyCostSumScalar)(residual, valid, count, inv_sigma, c);
+}
+
+WeightSums tukey_weights_scalar(const float* residual, const std::uint8_t* valid, int count,
+                                float inv_sigma, float c, float* weight) {
+  return HWY_DYNAMIC_DISPATCH(TukeyWeightsScalar)(residual, valid, count, inv_sigma, c, weight);
+}
+
+int gather_abs_valid_scalar(const float* residual, const std::uint8_t* valid, int count,
+                            float* out) {
+  return HWY_DYNAMIC_DISPATCH(GatherAbsValidScalar)(residual, valid, count, out);
+}
+
+float select_kth_scalar(float* v, int n, int k) {
+  return HWY_DYNAMIC_DISPATCH(SelectKthScalar)(v, n, k);
+}
+
+template <>
+void accumulate_normal_equations_scalar<6>(const float* const* J, int count, const float* w,
+                                           const float* r, Matrix8d& H, Vector8d& g) {
+  HWY_DYNAMIC_DISPATCH(NormalEquations6Scalar)(J, count, w, r, H, g);
+}
+
+template <>
+void accumulate_normal_equations_scalar<8>(const float* const* J, int count, const float* w,
+                                           const float* r, Matrix8d& H, Vector8d& g) {
+  HWY_DYNAMIC_DISPATCH(NormalEquations8Scalar)(J, count, w, r, H, g);
 }
 
 const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }

@@ -12,7 +12,6 @@
 #include <span>
 #include <type_traits>
 
-#include "alignment_kernels_reference.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/image/gradient.hpp"
 #include "kestrel/image/intensity.hpp"

@@ -3,7 +3,8 @@
 // weighted normal equations. DirectTracker calls them once per Gauss-Newton iteration; they are
 // free functions on plain arrays so that each can be tested and benchmarked alone. Each is
 // written once in portable SIMD (Google Highway: AVX-512, AVX2, SSE4 on x86, NEON on ARM, the
-// best one the CPU has chosen at run time) and has one scalar reference (*_scalar).
+// best one the CPU has chosen at run time) and has one scalar reference (*_scalar), whose one
+// source is compiled for the same targets and runs on the one the kernels run on.
 #pragma once
 
 #include <Eigen/Core>
@@ -154,6 +155,12 @@ void accumulate_normal_equations<8>(const float* const* J, int count, const floa
 template <int C>
 void accumulate_normal_equations_scalar(const float* const* J, int count, const float* w,
                                         const float* r, Matrix8d& H, Vector8d& g);
+template <>
+void accumulate_normal_equations_scalar<6>(const float* const* J, int count, const float* w,
+                                           const float* r, Matrix8d& H, Vector8d& g);
+template <>
+void accumulate_normal_equations_scalar<8>(const float* const* J, int count, const float* w,
+                                           const float* r, Matrix8d& H, Vector8d& g);
 
 /// The SIMD target the kernels run on in this process (e.g. "AVX3", "AVX2", "NEON").
 const char* simd_target();

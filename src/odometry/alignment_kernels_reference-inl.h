@@ -1,24 +1,45 @@
 // The scalar references of the alignment kernels (alignment_kernels.hpp): one point at a time,
-// written for clarity. The SIMD kernels (alignment_kernels.cpp) run them on the points that do
-// not fill a vector, and the tests hold the two equal on every compiled SIMD target.
-#include "alignment_kernels_reference.hpp"
+// written for clarity. A Highway "-inl" header: alignment_kernels.cpp includes it once per SIMD
+// target, so that each target's kernels run these loops on the points that do not fill a vector
+// and the public *_scalar functions run the copy compiled for the target the kernels run on.
+// The source is the one reference; only its code generation follows the target, as a
+// -march=native build's did: VEX encodings, and on AVX2 and AVX-512 the FMAs GCC contracts
+// a * b + c into (its C++ default), which round once where the baseline build rounds twice; the
+// tests' tolerances hold the kernels to the reference on every target either way.
+//
+// Private to the odometry module.
+
+// The target-independent part, included once.
+#ifndef KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_ONCE_H_
+#define KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_ONCE_H_
+namespace kestrel::odometry::kernels {
+/// abs_median's counts around its bracket [lo, hi): valid points, those below, and those inside
+/// (packed into scratch[0..inside)).
+struct MedianBracket {
+  int valid = 0, below = 0, inside = 0;
+};
+}  // namespace kestrel::odometry::kernels
+#endif
+
+// Per target: the guard toggles with HWY_TARGET_TOGGLE (Highway's -inl.h convention).
+#if defined(KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_INL_H_
+#undef KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_INL_H_
+#else
+#define KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_INL_H_
+#endif
+
+#include <hwy/highway.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
 #include "kestrel/image/interpolation.hpp"
+#include "kestrel/odometry/alignment_kernels.hpp"
 
-namespace kestrel::odometry::kernels {
-
-FloatPose FloatPose::from(const SE3& T) {
-  const Eigen::Matrix3f R = T.rotation_matrix().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
-  return {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2),
-          R(2, 0), R(2, 1), R(2, 2), t.x(),   t.y(),   t.z()};
-}
-
-namespace {
+HWY_BEFORE_NAMESPACE();
+namespace kestrel::odometry::kernels::HWY_NAMESPACE::reference {
 
 // Catmull-Rom weights of the 4 taps at offsets -1, 0, 1, 2 for a fractional position t.
 inline void catmull_rom_weights(float t, float w[4]) {
@@ -81,9 +102,8 @@ struct Tukey {
   }
 };
 
-}  // namespace
-
-int warp_range_scalar(const PointsView& p, const LevelImage& cur, const FloatPose& T, float alpha,
+// Points [begin, count) of warp_residuals; returns how many are valid.
+inline int warp_range(const PointsView& p, const LevelImage& cur, const FloatPose& T, float alpha,
                       float beta, int begin, float* residual, std::uint8_t* valid,
                       Sampling sampling) {
   const auto umax = static_cast<float>(cur.width - 1);
@@ -100,7 +120,7 @@ int warp_range_scalar(const PointsView& p, const LevelImage& cur, const FloatPos
 // Points [first, count) of warp_point_to_plane, one at a time. Without early exits (a point
 // without a normal or a usable sample gets zero residual, Jacobian and validity): the loop
 // without branches out of it is the faster one (docs/odometry.md, "Speed").
-int point_to_plane_range_scalar(const PlanePointsView& p, const LevelImage& dep, const FloatPose& T,
+inline int point_to_plane_range(const PlanePointsView& p, const LevelImage& dep, const FloatPose& T,
                                 float max_spread, int first, float* res, std::uint8_t* val,
                                 float* const* jac) {
   const auto [r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2] = T;
@@ -158,20 +178,9 @@ int point_to_plane_range_scalar(const PlanePointsView& p, const LevelImage& dep,
   return count;
 }
 
-int warp_residuals_scalar(const PointsView& points, const LevelImage& cur,
-                          const FloatPose& T_cur_ref, float alpha, float beta, float* residual,
-                          std::uint8_t* valid, Sampling sampling) {
-  return warp_range_scalar(points, cur, T_cur_ref, alpha, beta, 0, residual, valid, sampling);
-}
-
-int warp_point_to_plane_scalar(const PlanePointsView& points, const LevelImage& depth,
-                               const FloatPose& T_cur_ref, float max_spread, float* residual,
-                               std::uint8_t* valid, float* const* jac) {
-  return point_to_plane_range_scalar(points, depth, T_cur_ref, max_spread, 0, residual, valid, jac);
-}
-
-double tukey_cost_range(const float* residual, const std::uint8_t* valid, int begin, int count,
-                        float inv_sigma, float c) {
+// Points [begin, count) of tukey_cost_sum.
+inline double tukey_cost_range(const float* residual, const std::uint8_t* valid, int begin,
+                               int count, float inv_sigma, float c) {
   const Tukey tk{c * c / 6.0F};
   const float inv_sc = inv_sigma / c;
   double cost = 0.0;
@@ -182,8 +191,9 @@ double tukey_cost_range(const float* residual, const std::uint8_t* valid, int be
   return cost;
 }
 
-WeightSums tukey_weights_range(const float* residual, const std::uint8_t* valid, int begin,
-                               int count, float inv_sigma, float c, float* weight) {
+// Points [begin, count) of tukey_weights.
+inline WeightSums tukey_weights_range(const float* residual, const std::uint8_t* valid, int begin,
+                                      int count, float inv_sigma, float c, float* weight) {
   const Tukey tk{c * c / 6.0F};
   const float inv_sc = inv_sigma / c;
   const float inv_sigma2 = inv_sigma * inv_sigma;
@@ -199,17 +209,8 @@ WeightSums tukey_weights_range(const float* residual, const std::uint8_t* valid,
   return out;
 }
 
-double tukey_cost_sum_scalar(const float* residual, const std::uint8_t* valid, int count,
-                             float inv_sigma, float c) {
-  return tukey_cost_range(residual, valid, 0, count, inv_sigma, c);
-}
-
-WeightSums tukey_weights_scalar(const float* residual, const std::uint8_t* valid, int count,
-                                float inv_sigma, float c, float* weight) {
-  return tukey_weights_range(residual, valid, 0, count, inv_sigma, c, weight);
-}
-
-int gather_abs_valid_scalar(const float* residual, const std::uint8_t* valid, int count,
+// gather_abs_valid: |r| of the valid points, packed.
+inline int gather_abs_valid(const float* residual, const std::uint8_t* valid, int count,
                             float* out) {
   int m = 0;
   for (int i = 0; i < count; ++i) {
@@ -219,13 +220,15 @@ int gather_abs_valid_scalar(const float* residual, const std::uint8_t* valid, in
   return m;
 }
 
-float select_kth_scalar(float* v, int n, int k) {
+// select_kth: the k-th smallest by the standard library's selection.
+inline float select_kth(float* v, int n, int k) {
   std::nth_element(v, v + k, v + n);
   return v[k];
 }
 
-void bracket_range(const float* residual, const std::uint8_t* valid, int begin, int count, float lo,
-                   float hi, MedianBracket& b, float* scratch) {
+// Points [begin, count) of abs_median's bracket pass (MedianBracket above).
+inline void bracket_range(const float* residual, const std::uint8_t* valid, int begin, int count,
+                          float lo, float hi, MedianBracket& b, float* scratch) {
   for (int i = begin; i < count; ++i) {
     if (valid[i] == 0) continue;
     const float a = std::fabs(residual[i]);
@@ -238,9 +241,10 @@ void bracket_range(const float* residual, const std::uint8_t* valid, int begin, 
   }
 }
 
+// accumulate_normal_equations<C>, one point at a time in double. Needs no padding.
 template <int C>
-void accumulate_normal_equations_scalar(const float* const* J, int count, const float* w,
-                                        const float* r, Matrix8d& H, Vector8d& g) {
+void accumulate_normal_equations(const float* const* J, int count, const float* w, const float* r,
+                                 Matrix8d& H, Vector8d& g) {
   static_assert(C >= 1 && C <= 8);
   for (int i = 0; i < count; ++i) {
     for (int a = 0; a < C; ++a) {
@@ -253,9 +257,8 @@ void accumulate_normal_equations_scalar(const float* const* J, int count, const 
     for (int b = 0; b < a; ++b) H(a, b) = H(b, a);
   }
 }
-template void accumulate_normal_equations_scalar<6>(const float* const*, int, const float*,
-                                                    const float*, Matrix8d&, Vector8d&);
-template void accumulate_normal_equations_scalar<8>(const float* const*, int, const float*,
-                                                    const float*, Matrix8d&, Vector8d&);
 
-}  // namespace kestrel::odometry::kernels
+}  // namespace kestrel::odometry::kernels::HWY_NAMESPACE::reference
+HWY_AFTER_NAMESPACE();
+
+#endif  // KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_INL_H_
