@@ -6,6 +6,9 @@
 #include <algorithm>
 #include <fstream>
 #include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "kestrel/flight/flight_report.hpp"
 #include "kestrel/flight/flight_simulation.hpp"
@@ -167,6 +170,27 @@ TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   std::string header;
   ASSERT_TRUE(std::getline(estimator, header));
   EXPECT_EQ(std::count(header.begin(), header.end(), ','), 24) << header;
+  // The filter's sigmas (the last 9 columns): "nan" (unknown) only before its first output, then
+  // finite and non-negative.
+  std::string row;
+  bool filter_started = false;
+  int rows_with_sigma = 0;
+  while (std::getline(estimator, row)) {
+    std::vector<std::string> cells;
+    std::stringstream cells_in(row);
+    for (std::string c; std::getline(cells_in, c, ',');) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 25u) << row;
+    for (std::size_t k = 16; k < 25; ++k) {
+      if (cells[k] == "nan") {
+        EXPECT_FALSE(filter_started) << "a sigma unknown after the filter's first output: " << row;
+        continue;
+      }
+      filter_started = true;
+      EXPECT_GE(std::stod(cells[k]), 0.0) << row;
+    }
+    rows_with_sigma += filter_started ? 1 : 0;
+  }
+  EXPECT_GT(rows_with_sigma, 50) << "the filter output sigmas for most of the 0.5 s";
   std::ifstream log(dir / "log.csv");
   std::string line;
   ASSERT_TRUE(std::getline(log, line));

@@ -181,7 +181,9 @@ std::string describe_flags(std::uint32_t flags);
 struct FusedState {
   TimeNs t_ns = 0;
   NominalState state;
-  Eigen::Matrix<double, 9, 1> sigma;                          ///< std of [p, theta, v]
+  /// std of [p, theta, v]; NaN in a state the filter has not output (unknown, not zero)
+  Eigen::Matrix<double, 9, 1> sigma =
+      Eigen::Matrix<double, 9, 1>::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d sigma_gyro_bias = Eigen::Vector3d::Zero();  ///< std of b_g
   double sigma_time_offset_s = 0.0;                           ///< std of t_d
 
