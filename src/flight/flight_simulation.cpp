@@ -218,6 +218,7 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     RelocalizationEvent e;
     e.t_s = t_s;
     e.result = *frame.relocalization;
+    e.ms = frame.relocalization_ms;
     const auto ref = true_camera_poses_.find(frame.relocalization_reference_ns);
     if (ref != true_camera_poses_.end()) {
       const SE3 T_true = ref->second.inverse() * T_world_cam_true;

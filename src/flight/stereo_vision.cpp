@@ -202,7 +202,11 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const Bo
   frame.depth_m = depth_.depth_m;
   out.track = tracker_.track(frame);
   out.measurement = measurements_.next(out.track);
-  if (gap && relocalizer_ && reference_) relocalize(frame, estimate, out);
+  if (gap && relocalizer_ && reference_) {
+    const auto relocalize_start = std::chrono::steady_clock::now();
+    relocalize(frame, estimate, out);
+    out.relocalization_ms = ms_since(relocalize_start);
+  }
   out.track_ms = ms_since(start);
   // The filter clones this frame (or anchors the tracker's keyframe on it): the reference a
   // relocalisation after a gap would be measured against.

@@ -55,6 +55,8 @@ double rotation_deg(const SE3& T) { return T.so3().log().norm() * 180.0 / M_PI; 
 void RelocalizerOptions::validate() const {
   require(max_features >= 50 && max_features <= 100000, "max_features", "must be in [50, 1e5]");
   require(fast_threshold >= 1 && fast_threshold <= 255, "fast_threshold", "must be in [1, 255]");
+  require(sift_contrast_threshold > 0.0 && sift_contrast_threshold < 1.0, "sift_contrast_threshold",
+          "must be in (0, 1)");
   require(max_match_ratio > 0.0 && max_match_ratio <= 1.0, "max_match_ratio", "must be in (0, 1]");
   require(min_depth_m > 0.0 && max_depth_m > min_depth_m, "min_depth_m/max_depth_m",
           "need 0 < min_depth_m < max_depth_m");

@@ -93,6 +93,9 @@ TEST(Relocalizer, BadInputAndOptionsAreReported) {
   o.max_match_ratio = 1.5;
   EXPECT_THROW(o.validate(), InputError);
   o = RelocalizerOptions{};
+  o.sift_contrast_threshold = 0.0;
+  EXPECT_THROW(o.validate(), InputError);
+  o = RelocalizerOptions{};
   o.max_depth_m = o.min_depth_m;
   EXPECT_THROW(Relocalizer(cam, o, DirectTrackerOptions{}), InputError);
   const PinholeCamera distorted({262.5, 262.5, 159.5, 119.5, 320, 240}, {0.1, 0, 0, 0, 0});

@@ -126,6 +126,7 @@ struct RelocalizationEvent {
   /// simulation knows it): translation (m) and rotation (deg).
   double translation_error_m = 0.0;
   double rotation_error_deg = 0.0;
+  double ms = 0.0;  ///< wall time of the relocalisation
 };
 
 struct FlightResult {

@@ -93,6 +93,7 @@ struct VisionFrame {
   /// the relocalisation against it (when ok, `measurement` is its measurement).
   std::optional<odometry::RelocalizationResult> relocalization;
   TimeNs relocalization_reference_ns = 0;  ///< the time stamp of the frame relocalised against
+  double relocalization_ms = 0.0;          ///< its time (included in track_ms)
   double depth_fill = 0.0;                 ///< share of pixels with a disparity
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;
   double expose_ms = 0.0;  ///< motion blur and rolling shutter (included in render_ms)
