@@ -182,8 +182,9 @@ void run_fly(const FlyArgs& a) {
     std::cout << "  relocalisation at " << std::setprecision(3) << e.t_s
               << " s: " << (r.ok() ? "ok" : "refused (" + r.detail + ")") << ", " << r.inliers
               << " of " << r.matches << " matches inliers, reprojection " << r.reprojection_rms_px
-              << " px; error against the truth " << 100.0 * e.translation_error_m << " cm, "
-              << e.rotation_error_deg << " deg; " << e.ms << " ms\n";
+              << " px, refined sigma " << 255.0 * r.refinement.sigma
+              << " grey levels; error against the truth " << 100.0 * e.translation_error_m
+              << " cm, " << e.rotation_error_deg << " deg; " << e.ms << " ms\n";
   }
   for (const auto& p : logs) std::cout << "  log:  " << p.string() << "\n";
   for (const auto& p : plots) std::cout << "  plot: " << p.string() << "\n";
