@@ -54,6 +54,7 @@ struct FlyArgs {
   std::string stereo_matcher, sgm_yaml;       // --stereo-matcher sad|census|sgm, --sgm-options FILE
   std::string adaptive_vo_noise;              // on|off; empty: the fusion's default
   double adaptive_vo_noise_max_scale = -1.0;  // < 0: the fusion's default
+  std::string relocalize;                     // on|off; empty: the vision's default (on)
 };
 
 void run_fly(const FlyArgs& a) {
@@ -118,6 +119,7 @@ void run_fly(const FlyArgs& a) {
   if (a.adaptive_vo_noise_max_scale >= 0.0) {
     options.fusion.adaptive_vo_noise.max_scale = a.adaptive_vo_noise_max_scale;
   }
+  if (!a.relocalize.empty()) options.vision.relocalize_after_gap = a.relocalize == "on";
   if (a.latency_s >= 0.0) options.vision_latency_s = a.latency_s;
   if (a.vo_off_at_s >= 0.0) {
     if (!(a.vo_off_for_s > 0.0)) throw InputError("fly: --vo-off-for must be positive");
@@ -175,6 +177,15 @@ void run_fly(const FlyArgs& a) {
             << result.max_tracking_m() << " m), estimate RMS " << result.rms_estimate_m()
             << " m, scored from t = " << result.settle_s << " s\n"
             << "  " << result.counters.describe() << "\n";
+  for (const flight::RelocalizationEvent& e : result.relocalizations) {
+    const odometry::RelocalizationResult& r = e.result;
+    std::cout << "  relocalisation at " << std::setprecision(3) << e.t_s
+              << " s: " << (r.ok() ? "ok" : "refused (" + r.detail + ")") << ", " << r.inliers
+              << " of " << r.matches << " matches inliers, reprojection " << r.reprojection_rms_px
+              << " px, refined sigma " << 255.0 * r.refinement.sigma
+              << " grey levels; error against the truth " << 100.0 * e.translation_error_m
+              << " cm, " << e.rotation_error_deg << " deg; " << e.ms << " ms\n";
+  }
   for (const auto& p : logs) std::cout << "  log:  " << p.string() << "\n";
   for (const auto& p : plots) std::cout << "  plot: " << p.string() << "\n";
   std::cout << flight::flight_summary_line(result) << std::endl;
@@ -233,6 +244,11 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--adaptive-vo-noise-max-scale", args->adaptive_vo_noise_max_scale,
                   "Upper bound of that scale (0: the gate over the degrees of freedom, 3.74)")
       ->check(number_in(0.0, 1.0e6, "0 or a scale in [1, 1e6]"));
+  cmd->add_option("--relocalize", args->relocalize,
+                  "After an odometry gap, relocalise the first frame against the last one "
+                  "before it (SIFT + PnP, refined by the direct alignment): on|off, on by default "
+                  "(docs/flight.md, \"Re-localising after an odometry outage\")")
+      ->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--vo-reference", args->vo_reference,
                   "What each odometry measurement to the EKF is relative to: keyframe (default) "
                   "or previous_frame (docs/flight.md compares them)");

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <deque>
 #include <iterator>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -72,6 +73,9 @@ class FlightLoop {
   [[nodiscard]] control::SafetyMode mode() const { return supervisor_.mode(); }
   /// The frame counters and the filter's.
   [[nodiscard]] FlightCounters counters() const;
+  [[nodiscard]] const std::vector<RelocalizationEvent>& relocalizations() const {
+    return relocalizations_;
+  }
 
  private:
   void start_estimator();
@@ -102,6 +106,8 @@ class FlightLoop {
   double position_sigma_m_ = 0.0;
   fusion::FusedState last_fused_;
   FlightCounters counters_;
+  std::map<TimeNs, SE3> true_camera_poses_;  // of the last minute's frames, by stamp
+  std::vector<RelocalizationEvent> relocalizations_;
 };
 
 /// The vehicle hovers at the scenario's start (or stands there on the floor, rotors at hover
@@ -187,8 +193,14 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   const sim::QuadrotorState& truth = vehicle_.state();
   const BodyTwist twist{truth.v_world, truth.omega_body};
   const TimeNs stamp_ns = t_ns - s_to_ns(options_.world.imu.camera_time_offset_s);
-  const VisionFrame frame =
-      vision_.process(stamp_ns, SE3(truth.R_world_body, truth.p_world), &twist);
+  // The on-board estimate at the frame (the filter's, carried to now by the IMU): the
+  // relocalisation's prior after a gap.
+  std::optional<PoseEstimate> estimate;
+  if (const auto e = predictor_.predict(); e && control::finite_estimate(*e)) {
+    estimate = PoseEstimate{SE3(e->R_world_body, e->p_world), position_sigma_m_};
+  }
+  const VisionFrame frame = vision_.process(stamp_ns, SE3(truth.R_world_body, truth.p_world),
+                                            &twist, estimate ? &*estimate : nullptr);
   ++counters_.frames;
   counters_.expose_ms += frame.expose_ms;
   counters_.depth_fill_sum += frame.depth_fill;
@@ -197,6 +209,31 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   counters_.track_ms += frame.track_ms;
   vo_ok_ = frame.track.ok();
   if (vo_ok_) ++counters_.frames_tracked;
+  // The true camera poses of the frames, by stamp: a relocalisation's error is known here.
+  const SE3 T_world_cam_true = SE3(truth.R_world_body, truth.p_world) * options_.vision.T_body_cam;
+  true_camera_poses_[stamp_ns] = T_world_cam_true;
+  if (frame.relocalization) {
+    ++counters_.relocalizations_tried;
+    if (frame.relocalization->ok()) ++counters_.relocalizations_ok;
+    RelocalizationEvent e;
+    e.t_s = t_s;
+    e.result = *frame.relocalization;
+    e.ms = frame.relocalization_ms;
+    const auto ref = true_camera_poses_.find(frame.relocalization_reference_ns);
+    if (ref != true_camera_poses_.end()) {
+      const SE3 T_true = ref->second.inverse() * T_world_cam_true;
+      const SE3 T_est = e.result.ok() ? e.result.T_ref_cur : e.result.T_ref_cur_pnp;
+      const SE3 d = T_true.inverse() * T_est;
+      e.translation_error_m = d.translation().norm();
+      e.rotation_error_deg = d.so3().log().norm() * 180.0 / M_PI;
+    }
+    relocalizations_.push_back(e);
+  }
+  // A reference is the filter's clone, seconds old at most in practice: a minute is kept.
+  while (!true_camera_poses_.empty() &&
+         true_camera_poses_.begin()->first < stamp_ns - s_to_ns(60.0)) {
+    true_camera_poses_.erase(true_camera_poses_.begin());
+  }
   if (frame.measurement) {
     const InFlight m{t_ns + s_to_ns(link_.latency_s(options_.vision_latency_s)),
                      *frame.measurement};
@@ -304,7 +341,8 @@ std::string FlightCounters::describe() const {
   const double n = frames > 0 ? static_cast<double>(frames) : 1.0;
   os << "frames " << frames << " (tracked " << frames_tracked << ", odometry off " << frames_off
      << ", dropped " << frames_dropped << "), mean depth fill " << 100.0 * depth_fill_sum / n
-     << " %, per frame: render " << render_ms / n << " ms (blur and shutter " << expose_ms / n
+     << " %, relocalised after a gap " << relocalizations_ok << " of " << relocalizations_tried
+     << ", per frame: render " << render_ms / n << " ms (blur and shutter " << expose_ms / n
      << " ms), stereo " << match_ms / n << " ms, odometry " << track_ms / n << " ms; fusion "
      << fusion.describe();
   return os.str();
@@ -403,6 +441,7 @@ FlightResult FlightSimulation::run(double duration_s,
   result.duration_s = result.samples.empty() ? 0.0 : result.samples.back().t_s;
   result.final_mode = std::string(control::to_string(loop.mode()));
   result.counters = loop.counters();
+  result.relocalizations = loop.relocalizations();
   result.counters.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

@@ -1,6 +1,7 @@
 // The closed loop's vision: render the active-stereo pair, match, depth, track.
 #include "kestrel/flight/stereo_vision.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -54,6 +55,17 @@ void StereoVisionOptions::validate() const {
     throw std::invalid_argument("vision: covariance_scale must be positive");
   if (!(max_frame_gap_s > 0.0))
     throw std::invalid_argument("vision: max_frame_gap_s must be positive");
+  if (!(relocalization_prior_sigmas > 0.0) || !(relocalization_prior_min_translation_m >= 0.0) ||
+      !(relocalization_prior_rotation_deg > 0.0)) {
+    throw std::invalid_argument(
+        "vision: relocalization_prior_sigmas and _rotation_deg must be positive, "
+        "_min_translation_m >= 0");
+  }
+  try {
+    relocalizer.validate();
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string("vision: ") + e.what());
+  }
   rig().validate();
   matcher.validate();
   if (matcher_kind == sensor::StereoMatcherKind::kSgm) {
@@ -76,7 +88,8 @@ std::string StereoVisionOptions::describe() const {
                    " block " + std::to_string(matcher.block_size))
      << ", disparities " << matcher.min_disparity << ".." << matcher.max_disparity
      << ", covariance x" << covariance_scale << ", measurements from the "
-     << fusion::odometry_reference_name(measurement_reference);
+     << fusion::odometry_reference_name(measurement_reference)
+     << (relocalize_after_gap ? ", relocalised after a gap" : ", restarted after a gap");
   return os.str();
 }
 
@@ -98,6 +111,10 @@ StereoVision::StereoVision(const sim::Scene& scene, const StereoVisionOptions& o
       front_end_(rig_, front_end_options(options)),
       tracker_(rig_.left(), options.tracker),
       measurements_(options.measurement_reference, options.covariance_scale) {
+  if (options_.relocalize_after_gap) {
+    relocalizer_ = std::make_unique<odometry::Relocalizer>(rig_.left(), options_.relocalizer,
+                                                           options_.tracker);
+  }
   if (tracking_view_) {
     renderer_.add_rig_light(projector_);
     // The seed of the separate tracking renderer this replaces: the same noise, frame by frame.
@@ -122,7 +139,8 @@ std::pair<Eigen::Vector3d, Eigen::Vector3d> camera_twist(const BodyTwist& b,
 
 }  // namespace
 
-VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const BodyTwist* twist) {
+VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const BodyTwist* twist,
+                                  const PoseEstimate* estimate) {
   VisionFrame out;
   out.t_ns = t_ns;
   const SE3 T_world_left = T_world_body * options_.T_body_cam;
@@ -170,7 +188,8 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const Bo
 
   // A long gap (odometry switched off, a stalled pipeline): the keyframe is stale and the
   // constant-velocity guess meaningless, so the tracker restarts from this frame.
-  if (last_frame_ns_ && ns_to_s(t_ns - *last_frame_ns_) > options_.max_frame_gap_s) {
+  const bool gap = last_frame_ns_ && ns_to_s(t_ns - *last_frame_ns_) > options_.max_frame_gap_s;
+  if (gap) {
     tracker_.reset();
     measurements_.reset();
   }
@@ -182,9 +201,49 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const Bo
   frame.image = tracking_gray_;
   frame.depth_m = depth_.depth_m;
   out.track = tracker_.track(frame);
-  out.track_ms = ms_since(start);
   out.measurement = measurements_.next(out.track);
+  if (gap && relocalizer_ && reference_) {
+    const auto relocalize_start = std::chrono::steady_clock::now();
+    relocalize(frame, estimate, out);
+    out.relocalization_ms = ms_since(relocalize_start);
+  }
+  out.track_ms = ms_since(start);
+  // The filter clones this frame (or anchors the tracker's keyframe on it): the reference a
+  // relocalisation after a gap would be measured against.
+  if (relocalizer_ && out.measurement && out.measurement->starts_new_reference) {
+    reference_ = odometry::RgbdFrame{t_ns, tracking_gray_.clone(), depth_.depth_m.clone()};
+    reference_estimate_.reset();
+    if (estimate != nullptr) reference_estimate_ = *estimate;
+  }
   return out;
+}
+
+// The tracker restarted on `frame` (its measurement only clones it). A relocalisation against
+// the kept reference replaces that by the motion across the gap, which the filter applies
+// against its clone of the reference and then clones this frame, where the restarted tracker's
+// next measurements start.
+void StereoVision::relocalize(const odometry::RgbdFrame& frame, const PoseEstimate* estimate,
+                              VisionFrame& out) {
+  // The prior: the estimate's camera motion since the reference, within a few of its sigma.
+  std::optional<odometry::RelocalizationPrior> prior;
+  if (estimate != nullptr && reference_estimate_) {
+    const SE3& T_bc = options_.T_body_cam;
+    prior = odometry::RelocalizationPrior{
+        (reference_estimate_->T_world_body * T_bc).inverse() * (estimate->T_world_body * T_bc),
+        std::max(options_.relocalization_prior_min_translation_m,
+                 options_.relocalization_prior_sigmas * estimate->position_sigma_m),
+        options_.relocalization_prior_rotation_deg};
+  }
+  out.relocalization = relocalizer_->relocalize(*reference_, frame, prior ? &*prior : nullptr);
+  out.relocalization_reference_ns = reference_->t_ns;
+  if (!out.relocalization->ok() || !out.track.ok()) return;
+  fusion::RelativePoseMeasurement m;
+  m.t_ref_ns = reference_->t_ns;
+  m.t_ns = frame.t_ns;
+  m.T_ref_cur = out.relocalization->T_ref_cur;
+  m.covariance = options_.covariance_scale * out.relocalization->covariance;
+  m.starts_new_reference = true;
+  out.measurement = m;
 }
 
 }  // namespace kestrel::flight

@@ -67,6 +67,13 @@ TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
     held = held || s.mode == control::SafetyMode::kImuHold;
   }
   EXPECT_TRUE(held) << "the supervisor never switched to the IMU hold";
+  // One relocalisation, on the first frame after the outage; trusted only if it is right.
+  ASSERT_EQ(r.relocalizations.size(), 1u);
+  EXPECT_NEAR(r.relocalizations[0].t_s, 4.0, 0.04);
+  EXPECT_EQ(r.counters.relocalizations_tried, 1u);
+  if (r.relocalizations[0].result.ok()) {
+    EXPECT_LT(r.relocalizations[0].translation_error_m, 0.02);
+  }
   const FlightSample& last = r.samples.back();
   EXPECT_EQ(last.mode, control::SafetyMode::kNominal);
   EXPECT_TRUE(last.vo_ok);

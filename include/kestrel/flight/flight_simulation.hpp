@@ -106,7 +106,11 @@ struct FlightCounters {
   std::size_t frames_tracked = 0;  ///< ... that the odometry tracked
   std::size_t frames_off = 0;      ///< camera frames while the odometry was switched off
   std::size_t frames_dropped = 0;  ///< camera frames lost on the way (world.camera)
-  double expose_ms = 0.0;          ///< blur and rolling shutter (part of render_ms), total
+  /// Relocalisations after an odometry gap (StereoVisionOptions::relocalize_after_gap): tried,
+  /// and passing their checks (their measurements went to the filter).
+  std::size_t relocalizations_tried = 0;
+  std::size_t relocalizations_ok = 0;
+  double expose_ms = 0.0;  ///< blur and rolling shutter (part of render_ms), total
   double depth_fill_sum = 0.0;
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;  ///< totals
   double wall_s = 0.0;                                     ///< whole run
@@ -114,10 +118,22 @@ struct FlightCounters {
   [[nodiscard]] std::string describe() const;
 };
 
+/// One relocalisation after an odometry gap, at the camera frame's simulated time.
+struct RelocalizationEvent {
+  double t_s = 0.0;
+  odometry::RelocalizationResult result;
+  /// The relocalised pose's error against the true relative pose of the two frames (the
+  /// simulation knows it): translation (m) and rotation (deg).
+  double translation_error_m = 0.0;
+  double rotation_error_deg = 0.0;
+  double ms = 0.0;  ///< wall time of the relocalisation
+};
+
 struct FlightResult {
   std::string scenario;
   std::vector<FlightSample> samples;
   FlightCounters counters;
+  std::vector<RelocalizationEvent> relocalizations;
   double settle_s = 0.0;  ///< errors are scored from here on
   double duration_s = 0.0;
   bool crashed = false;

@@ -12,6 +12,7 @@
 #include "kestrel/fusion/fusion_engine.hpp"
 #include "kestrel/fusion/odometry_measurement.hpp"
 #include "kestrel/odometry/direct_tracker.hpp"
+#include "kestrel/odometry/relocalizer.hpp"
 #include "kestrel/sensor/pattern.hpp"
 #include "kestrel/sensor/stereo_front_end.hpp"
 #include "kestrel/sim/exposure.hpp"
@@ -61,6 +62,19 @@ struct StereoVisionOptions {
   fusion::OdometryReference measurement_reference = fusion::OdometryReference::kKeyframe;
   /// Frames further apart than this (odometry switched off, a stall): the tracker restarts.
   double max_frame_gap_s = 0.2;
+  /// After such a gap, relocalise the first frame against the frame the filter holds its clone
+  /// of (the last one before the gap that started a new reference): a measurement across the
+  /// gap ties the pose after it to the one before, where the restart alone leaves the drift
+  /// of the gap in the estimate for good (docs/flight.md, "Re-localising after an odometry
+  /// outage"). If the relocalisation fails its checks, the restart is as without it.
+  bool relocalize_after_gap = true;
+  odometry::RelocalizerOptions relocalizer;
+  /// The relocalisation's prior (PoseEstimate) covers this many position standard deviations
+  /// of the estimate after the gap, and at least min_translation_m; its rotation radius is
+  /// rotation_deg (the gyro's attitude drifts far less over a gap than the position).
+  double relocalization_prior_sigmas = 3.0;
+  double relocalization_prior_min_translation_m = 0.10;
+  double relocalization_prior_rotation_deg = 3.0;
 
   [[nodiscard]] RectifiedStereo rig() const;
   void validate() const;  ///< throws std::invalid_argument naming the field
@@ -75,7 +89,12 @@ struct VisionFrame {
   /// keyframe reference a failed frame, and the first after a restart, give one that only
   /// moves the filter's clone there; with the previous-frame reference a failed frame none).
   std::optional<fusion::RelativePoseMeasurement> measurement;
-  double depth_fill = 0.0;  ///< share of pixels with a disparity
+  /// The first frame after a gap, when relocalize_after_gap is on and a reference was kept:
+  /// the relocalisation against it (when ok, `measurement` is its measurement).
+  std::optional<odometry::RelocalizationResult> relocalization;
+  TimeNs relocalization_reference_ns = 0;  ///< the time stamp of the frame relocalised against
+  double relocalization_ms = 0.0;          ///< its time (included in track_ms)
+  double depth_fill = 0.0;                 ///< share of pixels with a disparity
   double render_ms = 0.0, match_ms = 0.0, track_ms = 0.0;
   double expose_ms = 0.0;  ///< motion blur and rolling shutter (included in render_ms)
 };
@@ -84,6 +103,14 @@ struct VisionFrame {
 struct BodyTwist {
   Eigen::Vector3d v_world = Eigen::Vector3d::Zero();
   Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();
+};
+
+/// The on-board estimate of the body's pose at a frame (the filter's, carried to the frame by
+/// the IMU) and its position uncertainty: after a gap, the relocalisation searches its matches
+/// around the motion this predicts since the reference frame.
+struct PoseEstimate {
+  SE3 T_world_body;
+  double position_sigma_m = 0.0;  ///< the largest standard deviation of the position
 };
 
 class StereoVision {
@@ -98,7 +125,11 @@ class StereoVision {
   /// twist and active exposure options (set_exposure), the rendered views get the motion blur
   /// and rolling shutter of that motion (sim::expose), t_ns being the middle row's
   /// mid-exposure.
-  VisionFrame process(TimeNs t_ns, const SE3& T_world_body, const BodyTwist* twist = nullptr);
+  /// `estimate` (may be null): the on-board estimate at this frame, kept with a relocalisation
+  /// reference and used as the relocalisation's prior after a gap (without one, on either
+  /// frame, the relocalisation searches the whole image).
+  VisionFrame process(TimeNs t_ns, const SE3& T_world_body, const BodyTwist* twist = nullptr,
+                      const PoseEstimate* estimate = nullptr);
   void set_exposure(const sim::ExposureOptions& exposure) { exposure_ = exposure; }
 
   [[nodiscard]] const StereoVisionOptions& options() const { return options_; }
@@ -108,6 +139,8 @@ class StereoVision {
   [[nodiscard]] const cv::Mat& last_depth_m() const { return depth_.depth_m; }
 
  private:
+  void relocalize(const odometry::RgbdFrame& frame, const PoseEstimate* estimate, VisionFrame& out);
+
   StereoVisionOptions options_;
   RectifiedStereo rig_;
   std::shared_ptr<sim::ProjectorLight> projector_;
@@ -122,6 +155,11 @@ class StereoVision {
   sensor::StereoDepthFrame depth_;
   fusion::OdometryMeasurements measurements_;
   std::optional<TimeNs> last_frame_ns_;
+  // The relocaliser and its reference: a copy of the last frame whose measurement started a new
+  // reference (the frame the filter clones, or anchors the keyframe on), with its depth.
+  std::unique_ptr<odometry::Relocalizer> relocalizer_;
+  std::optional<odometry::RgbdFrame> reference_;
+  std::optional<PoseEstimate> reference_estimate_;
   sim::ExposureOptions exposure_;
   cv::Mat flow_, exposed_;
   sim::ExposureWorkspace expose_workspace_;
