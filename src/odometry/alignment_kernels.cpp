@@ -1,7 +1,8 @@
 // The alignment kernels (alignment_kernels.hpp) in portable SIMD: Google Highway compiles this
 // file once per target (foreach_target.h re-includes it), and each public function calls the
 // best target the CPU supports (HWY_DYNAMIC_DISPATCH). The points that do not fill a vector go
-// to the scalar references (alignment_kernels_reference-inl.h), compiled for the same target.
+// to the scalar references as the baseline build compiles them (alignment_kernels_reference.hpp);
+// the public *_scalar references run on the kernels' target (alignment_kernels_reference-inl.h).
 // The bilinear sample is written with gathers: GCC does not vectorise it on its own ("control
 // flow in loop").
 #undef HWY_TARGET_INCLUDE
@@ -195,8 +196,8 @@ int WarpResiduals(const PointsView& points, const LevelImage& cur, const FloatPo
     store_valid(p.inside, valid + i);
     inside_count += static_cast<int>(hn::CountTrue(df, p.inside));
   }
-  return inside_count +
-         reference::warp_range(points, cur, T_cur_ref, alpha, beta, i, residual, valid, sampling);
+  return inside_count + kernels::warp_range_scalar(points, cur, T_cur_ref, alpha, beta, i, residual,
+                                                   valid, sampling);
 }
 
 // Invalid lanes read pixel (0, 0) and are zeroed at the stores.
@@ -249,8 +250,8 @@ int WarpPointToPlane(const PlanePointsView& points, const LevelImage& depth,
     store_valid(m, valid + i);
     count += static_cast<int>(hn::CountTrue(df, m));
   }
-  return count + reference::point_to_plane_range(points, depth, T_cur_ref, max_spread, i, residual,
-                                                 valid, jac);
+  return count + kernels::point_to_plane_range_scalar(points, depth, T_cur_ref, max_spread, i,
+                                                      residual, valid, jac);
 }
 
 // Sums of float lanes kept in double lanes (the robust cost of thousands of points).
@@ -315,7 +316,7 @@ double TukeyCostSum(const float* residual, const std::uint8_t* valid, int count,
     // Invalid points cost rho_max.
     sum.add(hn::IfThenElse(load_valid(valid + i), tk.cost(s2, hn::Le(s2, tk.one)), tk.k));
   }
-  return sum.total() + reference::tukey_cost_range(residual, valid, i, count, inv_sigma, c);
+  return sum.total() + kernels::tukey_cost_range(residual, valid, i, count, inv_sigma, c);
 }
 
 WeightSums TukeyWeights(const float* residual, const std::uint8_t* valid, int count,
@@ -337,7 +338,7 @@ WeightSums TukeyWeights(const float* residual, const std::uint8_t* valid, int co
     sum.add(hn::IfThenElse(ok, tk.cost(s2, in), tk.k));
     inliers += static_cast<int>(hn::CountTrue(df, hn::And(ok, hn::Lt(s2, tk.one))));
   }
-  WeightSums out = reference::tukey_weights_range(residual, valid, i, count, inv_sigma, c, weight);
+  WeightSums out = kernels::tukey_weights_range(residual, valid, i, count, inv_sigma, c, weight);
   out.cost += sum.total();
   out.inliers += inliers;
   return out;
@@ -366,7 +367,7 @@ MedianBracket BracketAbs(const float* residual, const std::uint8_t* valid, int c
       scratch[b.inside++] = std::fabs(residual[i + std::countr_zero(bits)]);
     }
   }
-  reference::bracket_range(residual, valid, i, count, lo, hi, b, scratch);
+  kernels::bracket_range(residual, valid, i, count, lo, hi, b, scratch);
   return b;
 }
 

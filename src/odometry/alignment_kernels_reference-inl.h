@@ -1,7 +1,8 @@
 // The scalar references of the alignment kernels (alignment_kernels.hpp): one point at a time,
 // written for clarity. A Highway "-inl" header: alignment_kernels.cpp includes it once per SIMD
-// target, so that each target's kernels run these loops on the points that do not fill a vector
-// and the public *_scalar functions run the copy compiled for the target the kernels run on.
+// target, and the public *_scalar functions run the copy compiled for the target the kernels run
+// on; alignment_kernels_reference.cpp compiles it once more for the baseline target, the copy the
+// kernels run on the points that do not fill a vector (alignment_kernels_reference.hpp says why).
 // The source is the one reference; only its code generation follows the target, as a
 // -march=native build's did: VEX encodings, and on AVX2 and AVX-512 the FMAs GCC contracts
 // a * b + c into (its C++ default), which round once where the baseline build rounds twice; the
@@ -9,17 +10,7 @@
 //
 // Private to the odometry module.
 
-// The target-independent part, included once.
-#ifndef KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_ONCE_H_
-#define KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_ONCE_H_
-namespace kestrel::odometry::kernels {
-/// abs_median's counts around its bracket [lo, hi): valid points, those below, and those inside
-/// (packed into scratch[0..inside)).
-struct MedianBracket {
-  int valid = 0, below = 0, inside = 0;
-};
-}  // namespace kestrel::odometry::kernels
-#endif
+#include "alignment_kernels_reference.hpp"  // MedianBracket
 
 // Per target: the guard toggles with HWY_TARGET_TOGGLE (Highway's -inl.h convention).
 #if defined(KESTREL_ODOMETRY_ALIGNMENT_KERNELS_REFERENCE_INL_H_) == defined(HWY_TARGET_TOGGLE)
