@@ -6,12 +6,13 @@
 #include <cmath>
 #include <deque>
 #include <iterator>
-#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include "kestrel/control/pwm_output.hpp"
+#include "kestrel/core/units.hpp"
 #include "kestrel/flight/imu_forward_predictor.hpp"
 #include "kestrel/flight/mission_clock.hpp"
 #include "kestrel/sim/camera_link.hpp"
@@ -106,7 +107,9 @@ class FlightLoop {
   double position_sigma_m_ = 0.0;
   fusion::FusedState last_fused_;
   FlightCounters counters_;
-  std::map<TimeNs, SE3> true_camera_poses_;  // of the last minute's frames, by stamp
+  // The true camera pose of the frame the vision keeps as its relocalisation reference (the
+  // last whose measurement started a new reference): a relocalisation's error is known here.
+  std::optional<std::pair<TimeNs, SE3>> reference_true_pose_;
   std::vector<RelocalizationEvent> relocalizations_;
 };
 
@@ -209,9 +212,7 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   counters_.track_ms += frame.track_ms;
   vo_ok_ = frame.track.ok();
   if (vo_ok_) ++counters_.frames_tracked;
-  // The true camera poses of the frames, by stamp: a relocalisation's error is known here.
   const SE3 T_world_cam_true = SE3(truth.R_world_body, truth.p_world) * options_.vision.T_body_cam;
-  true_camera_poses_[stamp_ns] = T_world_cam_true;
   if (frame.relocalization) {
     ++counters_.relocalizations_tried;
     if (frame.relocalization->ok()) ++counters_.relocalizations_ok;
@@ -219,20 +220,18 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     e.t_s = t_s;
     e.result = *frame.relocalization;
     e.ms = frame.relocalization_ms;
-    const auto ref = true_camera_poses_.find(frame.relocalization_reference_ns);
-    if (ref != true_camera_poses_.end()) {
-      const SE3 T_true = ref->second.inverse() * T_world_cam_true;
+    if (reference_true_pose_ && reference_true_pose_->first == frame.relocalization_reference_ns) {
+      const SE3 T_true = reference_true_pose_->second.inverse() * T_world_cam_true;
       const SE3 T_est = e.result.ok() ? e.result.T_ref_cur : e.result.T_ref_cur_pnp;
       const SE3 d = T_true.inverse() * T_est;
       e.translation_error_m = d.translation().norm();
-      e.rotation_error_deg = d.so3().log().norm() * 180.0 / M_PI;
+      e.rotation_error_deg = d.so3().angle() * kRadToDeg;
     }
     relocalizations_.push_back(e);
   }
-  // A reference is the filter's clone, seconds old at most in practice: a minute is kept.
-  while (!true_camera_poses_.empty() &&
-         true_camera_poses_.begin()->first < stamp_ns - s_to_ns(60.0)) {
-    true_camera_poses_.erase(true_camera_poses_.begin());
+  // The same rule as the vision's for its reference (StereoVision::process).
+  if (frame.measurement && frame.measurement->starts_new_reference) {
+    reference_true_pose_.emplace(stamp_ns, T_world_cam_true);
   }
   if (frame.measurement) {
     const InFlight m{t_ns + s_to_ns(link_.latency_s(options_.vision_latency_s)),

@@ -211,7 +211,12 @@ VisionFrame StereoVision::process(TimeNs t_ns, const SE3& T_world_body, const Bo
   // The filter clones this frame (or anchors the tracker's keyframe on it): the reference a
   // relocalisation after a gap would be measured against.
   if (relocalizer_ && out.measurement && out.measurement->starts_new_reference) {
-    reference_ = odometry::RgbdFrame{t_ns, tracking_gray_.clone(), depth_.depth_m.clone()};
+    // Copied into the kept buffers: a new reference comes with every keyframe, and after the
+    // first the copies allocate nothing.
+    if (!reference_) reference_.emplace();
+    reference_->t_ns = t_ns;
+    tracking_gray_.copyTo(reference_->image);
+    depth_.depth_m.copyTo(reference_->depth_m);
     reference_estimate_.reset();
     if (estimate != nullptr) reference_estimate_ = *estimate;
   }

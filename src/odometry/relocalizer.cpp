@@ -2,7 +2,7 @@
 #include "kestrel/odometry/relocalizer.hpp"
 
 #include <cmath>
-#include <limits>
+#include <cstdint>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "kestrel/core/error.hpp"
+#include "kestrel/core/units.hpp"
 
 namespace kestrel::odometry {
 namespace {
@@ -48,7 +49,7 @@ SE3 pose_from_pnp(const cv::Mat& rvec, const cv::Mat& tvec) {
   return SE3(SO3::from_matrix(Re), t);  // T_cur_ref: reference points into the current camera
 }
 
-double rotation_deg(const SE3& T) { return T.so3().log().norm() * 180.0 / M_PI; }
+double rotation_deg(const SE3& T) { return T.so3().angle() * kRadToDeg; }
 
 }  // namespace
 
@@ -112,10 +113,6 @@ Features detect(const cv::Ptr<cv::Feature2D>& detector, const cv::Mat& image) {
   return f;
 }
 
-double descriptor_distance(const cv::Mat& a, int i, const cv::Mat& b, int j, int norm) {
-  return cv::norm(a.row(i), b.row(j), norm);
-}
-
 }  // namespace
 
 Relocalizer::Correspondences Relocalizer::match(const RgbdFrame& reference,
@@ -135,11 +132,13 @@ Relocalizer::Correspondences Relocalizer::match(const RgbdFrame& reference,
   const Features cur = detect(detector, current.image);
   out.keypoints_reference = static_cast<int>(ref.keypoints.size());
   out.keypoints_current = static_cast<int>(cur.keypoints.size());
-  Correspondences c;
-  const double ratio = options_.max_match_ratio;
-  const double f = camera_.fx();
+  // The reference keypoints with a depth, their 3-D points, and (with a prior) the current
+  // keypoints each may match: those where the point can be by the prior's uncertainty, its
+  // translation radius at the point's predicted depth plus the rotation's. Without a prior,
+  // every keypoint is a candidate.
+  std::vector<int> queries;
+  std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < static_cast<int>(ref.keypoints.size()); ++i) {
-    // The reference keypoint's 3-D point, from its depth.
     const cv::Point2f& p = ref.keypoints[static_cast<std::size_t>(i)].pt;
     const int u = static_cast<int>(std::lround(p.x));
     const int v = static_cast<int>(std::lround(p.y));
@@ -147,37 +146,48 @@ Relocalizer::Correspondences Relocalizer::match(const RgbdFrame& reference,
     const double z = reference.depth_m.at<float>(v, u);
     if (!std::isfinite(z) || z < options_.min_depth_m || z > options_.max_depth_m) continue;
     const Eigen::Vector3d X = camera_.unproject(Eigen::Vector2d(p.x, p.y), z);
-    // With a prior, only current keypoints where the point can be by the prior's uncertainty
-    // are candidates: its translation radius at the point's predicted depth, plus the
-    // rotation's. Without one, every keypoint is.
-    Eigen::Vector2d predicted(0.0, 0.0);
-    double radius_px = std::numeric_limits<double>::infinity();
-    if (prior != nullptr) {
-      const Eigen::Vector3d Xc = prior->T_ref_cur.inverse() * X;
-      if (Xc.z() < options_.min_depth_m) continue;
-      predicted = camera_.project(Xc);
-      radius_px =
-          f * prior->translation_radius_m / Xc.z() + f * prior->rotation_radius_deg * M_PI / 180.0;
-    }
-    double best = std::numeric_limits<double>::infinity(), second = best;
-    int best_j = -1;
-    for (int j = 0; j < static_cast<int>(cur.keypoints.size()); ++j) {
-      const cv::Point2f& q = cur.keypoints[static_cast<std::size_t>(j)].pt;
-      if (prior != nullptr && (Eigen::Vector2d(q.x, q.y) - predicted).norm() > radius_px) continue;
-      const double d = descriptor_distance(ref.descriptors, i, cur.descriptors, j, norm);
-      if (d < best) {
-        second = best;
-        best = d;
-        best_j = j;
-      } else if (d < second) {
-        second = d;
+    if (prior != nullptr && (prior->T_ref_cur.inverse() * X).z() < options_.min_depth_m) continue;
+    queries.push_back(i);
+    points.push_back(X);
+  }
+  Correspondences c;
+  if (queries.empty() || cur.keypoints.empty()) {
+    out.matches = 0;
+    return c;
+  }
+  cv::Mat query_descriptors(static_cast<int>(queries.size()), ref.descriptors.cols,
+                            ref.descriptors.type());
+  for (std::size_t k = 0; k < queries.size(); ++k) {
+    ref.descriptors.row(queries[k]).copyTo(query_descriptors.row(static_cast<int>(k)));
+  }
+  cv::Mat window;  // candidates per query (rows) and current keypoint (columns)
+  if (prior != nullptr) {
+    window = cv::Mat::zeros(query_descriptors.rows, static_cast<int>(cur.keypoints.size()), CV_8U);
+    const SE3 T_cur_ref = prior->T_ref_cur.inverse();
+    const double f = camera_.fx();
+    for (int k = 0; k < window.rows; ++k) {
+      const Eigen::Vector3d Xc = T_cur_ref * points[static_cast<std::size_t>(k)];
+      const Eigen::Vector2d predicted = camera_.project(Xc);
+      const double radius_px =
+          f * prior->translation_radius_m / Xc.z() + f * prior->rotation_radius_deg * kDegToRad;
+      for (int j = 0; j < window.cols; ++j) {
+        const cv::Point2f& q = cur.keypoints[static_cast<std::size_t>(j)].pt;
+        window.at<std::uint8_t>(k, j) = (Eigen::Vector2d(q.x, q.y) - predicted).norm() <= radius_px;
       }
     }
+  }
+  std::vector<std::vector<cv::DMatch>> knn;
+  cv::BFMatcher(norm).knnMatch(query_descriptors, cur.descriptors, knn, 2, window);
+  const double ratio = options_.max_match_ratio;
+  for (const std::vector<cv::DMatch>& m : knn) {
     // Lowe's ratio test; a lone candidate passes (the prior's window excluded the rest).
-    if (best_j < 0 || !(best < ratio * second)) continue;
+    if (m.empty() || (m.size() == 2 && !(static_cast<double>(m[0].distance) <
+                                         ratio * static_cast<double>(m[1].distance))))
+      continue;
+    const Eigen::Vector3d& X = points[static_cast<std::size_t>(m[0].queryIdx)];
     c.points_ref.emplace_back(static_cast<float>(X.x()), static_cast<float>(X.y()),
                               static_cast<float>(X.z()));
-    c.pixels_cur.push_back(cur.keypoints[static_cast<std::size_t>(best_j)].pt);
+    c.pixels_cur.push_back(cur.keypoints[static_cast<std::size_t>(m[0].trainIdx)].pt);
   }
   out.matches = static_cast<int>(c.points_ref.size());
   return c;

@@ -1,4 +1,4 @@
-// Relocalizer on rendered pairs with known motions of 20-30 cm and no guess: the ORB + PnP
+// Relocalizer on rendered pairs with known motions of 20-30 cm and no guess: the SIFT + PnP
 // guess and the direct refinement recover them; pairs that share nothing are refused; bad
 // options and input are reported. (On the flight's office frames, where the direct alignment
 // alone does not reach such offsets: tests/flight/test_relocalization.cpp.)
