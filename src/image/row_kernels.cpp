@@ -223,13 +223,21 @@ void CentralGradientRow(const float* up, const float* mid, const float* down, fl
   const DF df;
   const int n = static_cast<int>(hn::Lanes(df));
   const VF half = hn::Set(df, 0.5F);
-  int x = 1;
-  for (; x + n <= width - 1; x += n) {
+  const auto step = [&](int x) {
     hn::StoreU(hn::Mul(half, hn::Sub(hn::LoadU(df, mid + x + 1), hn::LoadU(df, mid + x - 1))), df,
                gx + x);
     hn::StoreU(hn::Mul(half, hn::Sub(hn::LoadU(df, down + x), hn::LoadU(df, up + x))), df, gy + x);
+  };
+  int x = 1;
+  for (; x + n <= width - 1; x += n) step(x);
+  if (x < width - 1 && width - 2 >= n) {
+    // The columns left, by one more vector ending at the last interior column: it overlaps
+    // columns already written and writes the same values there (the output is a function of
+    // the input rows alone), where the scalar loop took up to n - 1 columns a row at a time.
+    step(width - 1 - n);
+    return;
   }
-  // The columns left: the reference from x - 1, whose column x - 1 it does not write.
+  // Rows narrower than a vector: the reference from x - 1, whose column x - 1 it does not write.
   const int from = x - 1;
   central_gradient_row_scalar(up + from, mid + from, down + from, gx + from, gy + from,
                               width - from);
