@@ -86,7 +86,9 @@ void run_fly(const FlyArgs& a) {
     warn_if_hold_is_overridden(a.safety_yaml, options.pause_mission_in_hold);
   }
   if (!a.tracker_yaml.empty()) {
-    options.vision.tracker = odometry::DirectTrackerOptions::load(a.tracker_yaml);
+    // Fields the file leaves out keep the stereo head's (odometry::stereo_head_tracker_options()).
+    options.vision.tracker =
+        odometry::DirectTrackerOptions::load(a.tracker_yaml, options.vision.tracker);
   }
   {
     sensor::MatcherSelection selection{std::nullopt, a.matcher_yaml, a.sgm_yaml};
@@ -261,7 +263,9 @@ void add_fly_command(CLI::App& app) {
   cmd->add_option("--imu", args->imu_yaml,
                   "IMU noise, EuRoC sensor.yaml format (config/imu_default.yaml)");
   cmd->add_option("--safety", args->safety_yaml, "Safety options YAML");
-  cmd->add_option("--tracker", args->tracker_yaml, "Direct-odometry options YAML");
+  cmd->add_option("--tracker", args->tracker_yaml,
+                  "Direct-odometry options YAML (fields it leaves out keep the stereo head's: "
+                  "the defaults without their 6 m depth limit, docs/flight.md)");
   cmd->add_option("--matcher", args->matcher_yaml, "Block-matcher options YAML");
   cmd->add_option("--stereo-matcher", args->stereo_matcher,
                   "Stereo matcher: sad (default), census or sgm (range: --matcher's)");

@@ -371,9 +371,11 @@ void run_stereo_odometry(const OdometryArgs& args) {
   if (args.depth_scale) {
     throw InputError("--depth-scale: not used with --stereo (depth comes from the disparity)");
   }
+  // Depth from the pair: the stereo head's defaults, which a --config file overrides.
   const odometry::DirectTrackerOptions options =
-      args.config.empty() ? odometry::DirectTrackerOptions{}
-                          : odometry::DirectTrackerOptions::load(args.config);
+      args.config.empty() ? odometry::stereo_head_tracker_options()
+                          : odometry::DirectTrackerOptions::load(
+                                args.config, odometry::stereo_head_tracker_options());
   const sensor::StereoFrontEndOptions matching = front_end_options(args);
   const io::EurocSequence sequence(args.dataset);
   io::OutputGuard outputs(kOdometryCommand, args.force);

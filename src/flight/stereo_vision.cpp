@@ -87,7 +87,8 @@ std::string StereoVisionOptions::describe() const {
              : std::string(matcher_kind ? to_string(*matcher_kind) : to_string(matcher.cost)) +
                    " block " + std::to_string(matcher.block_size))
      << ", disparities " << matcher.min_disparity << ".." << matcher.max_disparity
-     << ", covariance x" << covariance_scale << ", measurements from the "
+     << ", odometry depth " << tracker.selection.min_depth_m << "-" << tracker.selection.max_depth_m
+     << " m, covariance x" << covariance_scale << ", measurements from the "
      << fusion::odometry_reference_name(measurement_reference)
      << (relocalize_after_gap ? ", relocalised after a gap" : ", restarted after a gap");
   return os.str();

@@ -349,11 +349,13 @@ struct TrackerAccess {
                             const cv::Mat& img, const cv::Mat& dep, const cv::Mat& gx,
                             const cv::Mat& gy) {
     // The depth range; in disparity space d in [f B / max_depth, f B / min_depth], the same
-    // numbers on every level (d stays in full-resolution pixels).
+    // numbers on every level (d stays in full-resolution pixels). Without a far limit
+    // (max_depth .inf) a disparity must still be positive: d = 0 has no depth.
     const bool disp = m.disparity_input;
     const double fb = m.rig.f * m.rig.baseline_m;
-    const auto zmin =
-        static_cast<float>(disp ? fb / o.selection.max_depth_m : o.selection.min_depth_m);
+    const auto zmin = disp ? std::max(static_cast<float>(fb / o.selection.max_depth_m),
+                                      std::numeric_limits<float>::min())
+                           : static_cast<float>(o.selection.min_depth_m);
     const auto zmax =
         static_cast<float>(disp ? fb / o.selection.min_depth_m : o.selection.max_depth_m);
     const auto g2min = static_cast<float>(o.selection.min_gradient * o.selection.min_gradient);

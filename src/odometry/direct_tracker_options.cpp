@@ -2,6 +2,7 @@
 #include "kestrel/odometry/direct_tracker_options.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "kestrel/core/error.hpp"
@@ -55,7 +56,8 @@ void DirectTrackerOptions::validate() const {
 
   const SelectionOptions& s = selection;
   finite_pos("selection.min_depth_m", s.min_depth_m);
-  finite_pos("selection.max_depth_m", s.max_depth_m);
+  // .inf is allowed: no far limit, every depth the sensor gives.
+  if (!(s.max_depth_m > 0.0)) fail("selection.max_depth_m", "must be positive (.inf: no limit)");
   if (s.max_depth_m <= s.min_depth_m) {
     fail("selection.max_depth_m", "must exceed selection.min_depth_m");
   }
@@ -102,8 +104,9 @@ void DirectTrackerOptions::validate() const {
 std::string DirectTrackerOptions::to_yaml() const { return io::option_fields::to_yaml(*this); }
 
 DirectTrackerOptions DirectTrackerOptions::from_yaml(const YAML::Node& node,
-                                                     const std::string& source) {
-  DirectTrackerOptions o;
+                                                     const std::string& source,
+                                                     const DirectTrackerOptions& base) {
+  DirectTrackerOptions o = base;
   io::option_fields::read_fields(node, source, "tracker", o);
   try {
     o.validate();
@@ -113,10 +116,17 @@ DirectTrackerOptions DirectTrackerOptions::from_yaml(const YAML::Node& node,
   return o;
 }
 
-DirectTrackerOptions DirectTrackerOptions::load(const std::filesystem::path& path) {
+DirectTrackerOptions DirectTrackerOptions::load(const std::filesystem::path& path,
+                                                const DirectTrackerOptions& base) {
   const YAML::Node root = io::load_yaml_file(path);
-  if (root.IsMap() && root["tracker"]) return from_yaml(root["tracker"], path.string());
-  return from_yaml(root, path.string());
+  if (root.IsMap() && root["tracker"]) return from_yaml(root["tracker"], path.string(), base);
+  return from_yaml(root, path.string(), base);
+}
+
+DirectTrackerOptions stereo_head_tracker_options() {
+  DirectTrackerOptions o;
+  o.selection.max_depth_m = std::numeric_limits<double>::infinity();
+  return o;
 }
 
 }  // namespace kestrel::odometry

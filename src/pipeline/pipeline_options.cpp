@@ -57,7 +57,8 @@ void load_named_files(const YAML::Node& root, const fs::path& path, PipelineOpti
     if (root["tracker"]) {
       throw InputError(path, "tracker", "excludes tracker_options (give one or the other)");
     }
-    o.tracker = odometry::DirectTrackerOptions::load(o.tracker_options_file);
+    o.tracker = odometry::DirectTrackerOptions::load(o.tracker_options_file,
+                                                     odometry::stereo_head_tracker_options());
   }
   if (resolve(path, o.fusion_options_file)) {
     o.fusion = fusion::FusionOptions::load_yaml(o.fusion_options_file);

@@ -211,9 +211,15 @@ OdometryCore::OdometryCore(const OdometryCoreOptions& options,
                                                     ? fusion::OdometryReference::kKeyframe
                                                     : fusion::OdometryReference::kPreviousFrame,
                                                 options.vo_covariance_scale);
-  m.tracker_options = options.tracker_options_file.empty()
-                          ? odometry::DirectTrackerOptions{}
-                          : odometry::DirectTrackerOptions::load(options.tracker_options_file);
+  // Depth from a stereo pair: the stereo head's defaults (no far depth limit); RGB-D: the
+  // library's. A tracker_options file overrides either.
+  const odometry::DirectTrackerOptions tracker_base = options.mode == OdometryMode::kStereo
+                                                          ? odometry::stereo_head_tracker_options()
+                                                          : odometry::DirectTrackerOptions{};
+  m.tracker_options =
+      options.tracker_options_file.empty()
+          ? tracker_base
+          : odometry::DirectTrackerOptions::load(options.tracker_options_file, tracker_base);
   m.tracker_options.validate();
   if (options.mode == OdometryMode::kStereo) {
     sensor::MatcherSelection selection{std::nullopt, options.matcher_options_file,

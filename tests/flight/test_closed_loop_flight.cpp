@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -214,6 +215,19 @@ TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   EXPECT_EQ(summary.rfind("rms_tracking_m=", 0), 0u) << summary;
   EXPECT_NE(summary.find(" crashed=0"), std::string::npos) << summary;
   std::filesystem::remove_all(dir);
+}
+
+// The flight's tracker is the library's (chosen on Kinect-like RGB-D) without its 6 m depth
+// limit: the stereo head's depth is taken as far as its matcher gives it (docs/flight.md).
+TEST(FlightOptions, TrackerTakesEveryDepthTheStereoHeadGives) {
+  const odometry::DirectTrackerOptions flight = FlightOptions().vision.tracker;
+  EXPECT_EQ(flight.selection.max_depth_m, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(flight.to_yaml(), odometry::stereo_head_tracker_options().to_yaml());
+  odometry::DirectTrackerOptions library;
+  library.selection.max_depth_m = flight.selection.max_depth_m;
+  EXPECT_EQ(flight.to_yaml(), library.to_yaml()) << "only the depth limit differs";
+  EXPECT_NE(FlightOptions().vision.describe().find("odometry depth 0.2-inf m"), std::string::npos)
+      << FlightOptions().vision.describe();
 }
 
 TEST(FlightOptions, RejectsInconsistentRates) {

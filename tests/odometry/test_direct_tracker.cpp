@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <set>
@@ -444,6 +445,33 @@ TEST(DirectTracker, BadInputIsReportedNotCrashed) {
   EXPECT_TRUE(r.ok());
 }
 
+// The same room and motion scaled by ten (images unchanged, depth and translation x10: the
+// back wall at 30 m). The default 6 m limit keeps only the nearest floor and wall points;
+// without a far limit (selection.max_depth_m .inf) every point is used and the scaled motion
+// is recovered as the unscaled one is (KnownMotion above: 1 mm, here 1 cm).
+TEST(DirectTracker, FarSceneIsTrackedWithoutADepthLimit) {
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  const SE3 T_ref_cur = motion(0.015, -0.01, 0.02, 1.5, -2.0, 2.5);
+  const SE3 T_world_ref = motion(0.05, 0.02, 0, 0, 0, 0);
+  auto ref = render(room, cam, T_world_ref);
+  auto cur = render(room, cam, T_world_ref * T_ref_cur);
+  constexpr double kScale = 10.0;
+  ref.depth_m *= kScale;
+  cur.depth_m *= kScale;
+  const SE3 T_scaled(T_ref_cur.so3(), kScale * T_ref_cur.translation());
+
+  DirectTrackerOptions unlimited;
+  unlimited.selection.max_depth_m = std::numeric_limits<double>::infinity();
+  const TrackResult far = DirectTracker(cam, unlimited).align_pair(ref, cur);
+  ASSERT_TRUE(far.ok()) << far.failure_detail;
+  EXPECT_LT(translation_error_m(far.T_ref_cur, T_scaled), 1e-2);
+  EXPECT_LT(rotation_error_deg(far.T_ref_cur, T_scaled), 0.05);
+
+  const TrackResult cut = DirectTracker(cam, DirectTrackerOptions{}).align_pair(ref, cur);
+  EXPECT_LT(cut.points, far.points / 3) << "the 6 m limit should drop most of the points";
+}
+
 // config/tracker_default.yaml, the file users copy, holds every option at its default value.
 TEST(ShippedConfig, TrackerYamlEqualsTheDefaultsAndListsEveryOption) {
   const std::filesystem::path file =
@@ -495,6 +523,8 @@ TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
            {"fallback: {max_level_jump_px: 0}", "fallback.max_level_jump_px"},
            {"terms: {depth_noise_per_m: .nan}", "terms.depth_noise_per_m"},
            {"health: {min_points: 3}", "health.min_points"},
+           {"selection: {max_depth_m: .nan}", "selection.max_depth_m"},
+           {"selection: {max_depth_m: 0.1}", "selection.max_depth_m"},
            {"pyramid_levels: 5", "pyramid_levels"},
            {"use_depth_residual: true", "use_depth_residual"},
            {"rolling_shutter_readout_s: 0.02", "rolling_shutter_readout_s"},
@@ -503,6 +533,25 @@ TEST(DirectTrackerOptions, YamlRoundTripAndErrors) {
     EXPECT_NE(e.find(field), std::string::npos) << yaml << ": " << e;
     EXPECT_NE(e.find("t.yaml"), std::string::npos) << yaml << ": " << e;
   }
+}
+
+// A file read over other options (the flight's, `kestrel fly --tracker`) changes only the fields
+// it names; .inf is a valid far limit (none) and prints back as .inf.
+TEST(DirectTrackerOptions, YamlOverABaseKeepsWhatItLeavesOut) {
+  DirectTrackerOptions base;
+  base.selection.max_depth_m = std::numeric_limits<double>::infinity();
+  base.pyramid.levels = 4;
+  const DirectTrackerOptions o =
+      DirectTrackerOptions::from_yaml(YAML::Load("selection: {max_points: 3000}"), "t", base);
+  EXPECT_EQ(o.selection.max_points, 3000);
+  EXPECT_EQ(o.selection.max_depth_m, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(o.pyramid.levels, 4);
+  EXPECT_EQ(DirectTrackerOptions::from_yaml(YAML::Load(o.to_yaml()), "t").to_yaml(), o.to_yaml());
+  EXPECT_NE(o.to_yaml().find("max_depth_m: .inf"), std::string::npos) << o.to_yaml();
+  // Without a base: the library's defaults.
+  EXPECT_EQ(DirectTrackerOptions::from_yaml(YAML::Load("selection: {max_points: 3000}"), "t")
+                .selection.max_depth_m,
+            DirectTrackerOptions{}.selection.max_depth_m);
 }
 
 // `terms.geometric` replaces the two switches of earlier versions: off (no geometric residual),

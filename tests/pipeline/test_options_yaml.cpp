@@ -87,6 +87,11 @@ TEST(PipelineOptionsYaml, InlineTrackerAndTrackerFileExcludeEachOther) {
   const PipelineOptions inline_map = PipelineOptions::load_yaml(
       test::write_text(dir / "b.yaml", "input: x\ntracker:\n  pyramid:\n    levels: 2\n"));
   EXPECT_EQ(inline_map.tracker.pyramid.levels, 2);
+  // Both read over the stereo head's defaults: what they leave out keeps no far depth limit.
+  const double no_limit = odometry::stereo_head_tracker_options().selection.max_depth_m;
+  EXPECT_EQ(PipelineOptions().tracker.selection.max_depth_m, no_limit);
+  EXPECT_EQ(file.tracker.selection.max_depth_m, no_limit);
+  EXPECT_EQ(inline_map.tracker.selection.max_depth_m, no_limit);
   const fs::path both = test::write_text(
       dir / "c.yaml", "input: x\ntracker_options: t.yaml\ntracker:\n  pyramid: {levels: 2}\n");
   EXPECT_NE(test::config_error_of(both).find("field 'tracker': excludes tracker_options"),

@@ -224,7 +224,7 @@ TEST(OdometryCore, MatcherParameterSelectsTheSemiGlobalMatcher) {
   sensor::StereoFrontEndOptions front_end;
   front_end.kind = sensor::StereoMatcherKind::kSgm;
   odometry::StereoOdometry library(sensor::StereoCalibration::from_euroc(sequence), front_end,
-                                   odometry::DirectTrackerOptions{});
+                                   odometry::stereo_head_tracker_options());
   const SE3 C(SO3::from_matrix(library.R_rect_left().transpose()), Eigen::Vector3d::Zero());
   const EurocFolder euroc(folder);
   for (std::size_t i = 0; i < 4; ++i) {
@@ -250,7 +250,8 @@ TEST(OdometryCore, StereoWithImuMatchesTheLibraryAndFuses) {
   OdometryCore core(options);
   const io::EurocSequence sequence(folder);
   odometry::StereoOdometry library(sensor::StereoCalibration::from_euroc(sequence),
-                                   sensor::BlockMatcherOptions{}, odometry::DirectTrackerOptions{});
+                                   sensor::BlockMatcherOptions{},
+                                   odometry::stereo_head_tracker_options());
   const SE3 C(SO3::from_matrix(library.R_rect_left().transpose()), Eigen::Vector3d::Zero());
   const EurocFolder euroc(folder);
   const std::size_t n = euroc.size();

@@ -53,7 +53,7 @@ struct StereoVisionOptions {
   /// The stereo matcher (sad, census, sgm); unset: the block matcher with matcher.cost.
   std::optional<sensor::StereoMatcherKind> matcher_kind;
   sensor::SgmOptions sgm;  ///< matcher_kind sgm (the range is matcher's)
-  odometry::DirectTrackerOptions tracker;
+  odometry::DirectTrackerOptions tracker = odometry::stereo_head_tracker_options();
   /// The tracker's covariance is sigma^2 (J^T W J)^-1, which treats every pixel's residual
   /// as independent; neighbouring residuals are not, so the fusion gets it times this factor.
   double covariance_scale = 25.0;

@@ -49,7 +49,9 @@ struct PyramidOptions {
 /// Which reference pixels become points (depth range: thesis 5.2 future work).
 struct SelectionOptions {
   double min_depth_m = 0.2;  ///< reference points nearer than this are dropped
-  double max_depth_m = 6.0;  ///< ... and farther than this (Kinect depth noise grows as Z^2)
+  /// ... and farther than this (Kinect depth noise grows as Z^2; .inf: no far limit, as depth
+  /// from a stereo head is used, stereo_head_tracker_options()).
+  double max_depth_m = 6.0;
   /// Reference pixels need at least this gradient magnitude (intensity in [0, 1] per pixel).
   double min_gradient = 0.004;
   /// At most this many points per level, the ones of largest gradient (0 = no limit).
@@ -231,11 +233,13 @@ struct DirectTrackerOptions {
   void validate() const;
   /// Every field, one YAML map per group (valid YAML, loadable by from_yaml()).
   [[nodiscard]] std::string to_yaml() const;
-  /// Fields present in `node` override the defaults; unknown keys are errors (typos, and the
-  /// flat keys of earlier versions). `source` names the file in messages.
-  static DirectTrackerOptions from_yaml(const YAML::Node& node, const std::string& source);
+  /// Fields present in `node` override `base` (the defaults unless given); unknown keys are
+  /// errors (typos, and the flat keys of earlier versions). `source` names the file in messages.
+  static DirectTrackerOptions from_yaml(const YAML::Node& node, const std::string& source,
+                                        const DirectTrackerOptions& base = {});
   /// Loads a file: the options may be at the top level or under a `tracker:` key.
-  static DirectTrackerOptions load(const std::filesystem::path& path);
+  static DirectTrackerOptions load(const std::filesystem::path& path,
+                                   const DirectTrackerOptions& base = {});
   /// The field table (name, member) that print and load derive from (io/option_fields.hpp).
   template <typename Visitor>
   void visit_fields(Visitor&& v) {
@@ -249,5 +253,13 @@ struct DirectTrackerOptions {
     v("health", health);
   }
 };
+
+/// The tracker on depth from a stereo pair (`kestrel fly`, `kestrel run`, `kestrel odometry
+/// --stereo`, the ROS node in stereo mode): DirectTrackerOptions' defaults, which were chosen on
+/// Kinect-like RGB-D and cut its depth at 6 m where that sensor's noise has grown with Z^2,
+/// without the far limit: every depth the stereo matcher gives is used, its own checks having
+/// refused what it cannot match. Far points hold the rotation, and down a corridor the
+/// structure along its axis (docs/flight.md, "The corridor's far half").
+[[nodiscard]] DirectTrackerOptions stereo_head_tracker_options();
 
 }  // namespace kestrel::odometry

@@ -70,10 +70,12 @@ struct PipelineOptions {
   std::filesystem::path fusion_options_file;
 
   sensor::BlockMatcherOptions matcher;
-  sensor::SgmOptions sgm;                  ///< sgm_options (its range is matcher's)
-  odometry::DirectTrackerOptions tracker;  ///< tracker_options, or the inline `tracker:` map
-  fusion::FusionOptions fusion;            ///< IMU noise and T_body_cam are taken from the folder
-  ControllerStageOptions controller;       ///< the controller stage (`controller:` block)
+  sensor::SgmOptions sgm;  ///< sgm_options (its range is matcher's)
+  /// tracker_options, or the inline `tracker:` map, over the stereo head's defaults (no far
+  /// depth limit: odometry::stereo_head_tracker_options()).
+  odometry::DirectTrackerOptions tracker = odometry::stereo_head_tracker_options();
+  fusion::FusionOptions fusion;       ///< IMU noise and T_body_cam are taken from the folder
+  ControllerStageOptions controller;  ///< the controller stage (`controller:` block)
   /// The file load_yaml() read (empty when built in code): run-time errors of the camera name
   /// it with their field.
   std::filesystem::path config_file;
