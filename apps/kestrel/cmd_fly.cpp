@@ -178,7 +178,8 @@ void run_fly(const FlyArgs& a) {
             << "  tracking RMS " << std::setprecision(4) << result.rms_tracking_m() << " m (max "
             << result.max_tracking_m() << " m), estimate RMS " << result.rms_estimate_m()
             << " m, scored from t = " << result.settle_s << " s\n"
-            << "  " << result.counters.describe() << "\n";
+            << "  " << result.counters.describe() << "\n"
+            << "  " << flight::odometry_check_summary(result) << "\n";
   for (const flight::RelocalizationEvent& e : result.relocalizations) {
     const odometry::RelocalizationResult& r = e.result;
     std::cout << "  relocalisation at " << std::setprecision(3) << e.t_s

@@ -3,6 +3,8 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iomanip>
+#include <sstream>
 
 #include "kestrel/core/error.hpp"
 #include "kestrel/eval/plot.hpp"
@@ -92,7 +94,48 @@ std::vector<fs::path> write_flight_logs(const fs::path& dir, const FlightResult&
     }
     finish(out, estimator_path);
   }
-  return {log_path, details_path, estimator_path};
+  const fs::path odometry_path = dir / "odometry.csv";
+  {
+    std::ofstream out = open_for_writing(odometry_path);
+    out << "t,t_ref,tx_true,ty_true,tz_true,tx_meas,ty_meas,tz_meas,rx_err_deg,ry_err_deg,"
+           "rz_err_deg,sigma_tx,sigma_ty,sigma_tz,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,"
+           "fallback,new_reference,relocalised\n";
+    for (const OdometryCheck& c : result.odometry_checks) {
+      out << fixed(c.t_s, 4) << ',' << fixed(c.t_ref_s, 4);
+      for (const Eigen::Vector3d* v : {&c.translation_true, &c.translation_measured}) {
+        for (int k = 0; k < 3; ++k) out << ',' << fixed((*v)[k], 6);
+      }
+      for (int k = 0; k < 3; ++k) out << ',' << fixed(c.rotation_error_deg[k], 5);
+      for (int k = 0; k < 3; ++k) out << ',' << fixed(c.sigma_translation[k], 6);
+      for (int k = 0; k < 3; ++k) out << ',' << fixed(c.sigma_rotation_deg[k], 5);
+      out << ',' << (c.geometric_fallback ? 1 : 0) << ',' << (c.new_reference ? 1 : 0) << ','
+          << (c.relocalised ? 1 : 0) << '\n';
+    }
+    finish(out, odometry_path);
+  }
+  return {log_path, details_path, estimator_path, odometry_path};
+}
+
+std::string odometry_check_summary(const FlightResult& result) {
+  const std::vector<OdometryCheck>& checks = result.odometry_checks;
+  if (checks.empty()) return "odometry against the truth: no measurement";
+  Eigen::Vector3d error2 = Eigen::Vector3d::Zero(), normalised2 = Eigen::Vector3d::Zero();
+  for (const OdometryCheck& c : checks) {
+    const Eigen::Vector3d e = c.translation_measured - c.translation_true;
+    error2 += e.cwiseAbs2();
+    // (A zero sigma, which the tracker never reports, is floored at a nanometre.)
+    normalised2 += e.cwiseQuotient(c.sigma_translation.cwiseMax(1e-9)).cwiseAbs2();
+  }
+  const double n = static_cast<double>(checks.size());
+  const Eigen::Vector3d rms_mm = 1000.0 * (error2 / n).cwiseSqrt();
+  const Eigen::Vector3d rms_normalised = (normalised2 / n).cwiseSqrt();
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(2) << "odometry against the truth (" << checks.size()
+     << " measurements, camera x right, y down, z forward): translation error RMS " << rms_mm.x()
+     << " / " << rms_mm.y() << " / " << rms_mm.z() << " mm, error / sigma RMS "
+     << rms_normalised.x() << " / " << rms_normalised.y() << " / " << rms_normalised.z()
+     << " (odometry.csv)";
+  return os.str();
 }
 
 std::vector<fs::path> write_flight_plots(const fs::path& dir, const FlightResult& result) {

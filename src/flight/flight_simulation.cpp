@@ -6,6 +6,7 @@
 #include <cmath>
 #include <deque>
 #include <iterator>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -77,10 +78,14 @@ class FlightLoop {
   [[nodiscard]] const std::vector<RelocalizationEvent>& relocalizations() const {
     return relocalizations_;
   }
+  [[nodiscard]] const std::vector<OdometryCheck>& odometry_checks() const {
+    return odometry_checks_;
+  }
 
  private:
   void start_estimator();
   void camera_frame(TimeNs t_ns, double t_s);
+  void check_odometry(const VisionFrame& frame, double t_s, const SE3& T_world_cam_true);
   EstimatorOutput estimate(TimeNs t_ns);
 
   const FlightOptions& options_;
@@ -107,10 +112,12 @@ class FlightLoop {
   double position_sigma_m_ = 0.0;
   fusion::FusedState last_fused_;
   FlightCounters counters_;
-  // The true camera pose of the frame the vision keeps as its relocalisation reference (the
-  // last whose measurement started a new reference): a relocalisation's error is known here.
-  std::optional<std::pair<TimeNs, SE3>> reference_true_pose_;
+  // The true camera pose of every frame since the current reference (by its time stamp): each
+  // measurement's and relocalisation's error is known here. Older frames are dropped as the
+  // reference moves on (odometry measurements only go back to it).
+  std::map<TimeNs, SE3> true_poses_;
   std::vector<RelocalizationEvent> relocalizations_;
+  std::vector<OdometryCheck> odometry_checks_;
 };
 
 /// The vehicle hovers at the scenario's start (or stands there on the floor, rotors at hover
@@ -177,6 +184,34 @@ void FlightLoop::sense(TimeNs t_ns, double t_s) {
   }
 }
 
+// The measurement against the true motion since its reference frame, and the frames before that
+// reference forgotten (no later measurement goes back further; a relocalisation's reference is
+// the current one).
+void FlightLoop::check_odometry(const VisionFrame& frame, double t_s, const SE3& T_world_cam_true) {
+  if (!frame.measurement) return;
+  const fusion::RelativePoseMeasurement& m = *frame.measurement;
+  const auto ref = true_poses_.find(m.t_ref_ns);
+  if (m.t_ref_ns != m.t_ns && ref != true_poses_.end() && m.covariance.allFinite()) {
+    const SE3 T_true = ref->second.inverse() * T_world_cam_true;
+    OdometryCheck c;
+    c.t_s = t_s;
+    c.t_ref_s = t_s - ns_to_s(m.t_ns - m.t_ref_ns);
+    c.translation_true = T_true.translation();
+    c.translation_measured = m.T_ref_cur.translation();
+    c.rotation_error_deg = (T_true.so3().inverse() * m.T_ref_cur.so3()).log() * kRadToDeg;
+    const Eigen::Matrix<double, 6, 1> sigma = m.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    c.sigma_translation = sigma.head<3>();
+    c.sigma_rotation_deg = sigma.tail<3>() * kRadToDeg;
+    c.geometric_fallback = frame.track.geometric_fallback;
+    c.new_reference = m.starts_new_reference;
+    c.relocalised = frame.relocalization && frame.relocalization->ok();
+    odometry_checks_.push_back(c);
+  }
+  // The reference of the next measurements: this frame if it starts one, else m's.
+  const TimeNs keep_from = m.starts_new_reference ? m.t_ns : m.t_ref_ns;
+  true_poses_.erase(true_poses_.begin(), true_poses_.lower_bound(keep_from));
+}
+
 // The frame is rendered from the true pose (with the world's blur and rolling shutter), is
 // stamped t - t_d on the IMU clock (the true camera-IMU offset, unknown to the filter), and
 // its measurement reaches the filter after the vision latency (with the world's jitter) unless
@@ -220,8 +255,9 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     e.t_s = t_s;
     e.result = *frame.relocalization;
     e.ms = frame.relocalization_ms;
-    if (reference_true_pose_ && reference_true_pose_->first == frame.relocalization_reference_ns) {
-      const SE3 T_true = reference_true_pose_->second.inverse() * T_world_cam_true;
+    if (const auto ref = true_poses_.find(frame.relocalization_reference_ns);
+        ref != true_poses_.end()) {
+      const SE3 T_true = ref->second.inverse() * T_world_cam_true;
       const SE3 T_est = e.result.ok() ? e.result.T_ref_cur : e.result.T_ref_cur_pnp;
       const SE3 d = T_true.inverse() * T_est;
       e.translation_error_m = d.translation().norm();
@@ -229,10 +265,8 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     }
     relocalizations_.push_back(e);
   }
-  // The same rule as the vision's for its reference (StereoVision::process).
-  if (frame.measurement && frame.measurement->starts_new_reference) {
-    reference_true_pose_.emplace(stamp_ns, T_world_cam_true);
-  }
+  true_poses_.emplace(stamp_ns, T_world_cam_true);
+  check_odometry(frame, t_s, T_world_cam_true);
   if (frame.measurement) {
     const InFlight m{t_ns + s_to_ns(link_.latency_s(options_.vision_latency_s)),
                      *frame.measurement};
@@ -441,6 +475,7 @@ FlightResult FlightSimulation::run(double duration_s,
   result.final_mode = std::string(control::to_string(loop.mode()));
   result.counters = loop.counters();
   result.relocalizations = loop.relocalizations();
+  result.odometry_checks = loop.odometry_checks();
   result.counters.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;

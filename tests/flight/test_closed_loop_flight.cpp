@@ -52,6 +52,29 @@ TEST(ClosedLoopFlight, HoversOnTheWholePipeline) {
   }
 }
 
+// Every odometry measurement of a short hover against the truth the simulation knows: the
+// reference is an earlier frame (or the keyframe), the errors are millimetres, and the
+// covariance sent with them covers them (error / sigma RMS of order 1, not 10).
+TEST(ClosedLoopFlight, OdometryChecksCompareEachMeasurementWithTheTruth) {
+  FlightSimulation simulation(scenario("hover"), small_options());
+  const FlightResult r = simulation.run(3.0);
+  ASSERT_GT(r.odometry_checks.size(), 60u);  // ~30 Hz for 3 s, less the first frame
+  Eigen::Vector3d error2 = Eigen::Vector3d::Zero(), normalised2 = Eigen::Vector3d::Zero();
+  for (const OdometryCheck& c : r.odometry_checks) {
+    EXPECT_LT(c.t_ref_s, c.t_s);
+    EXPECT_TRUE((c.sigma_translation.array() > 0.0).all());
+    const Eigen::Vector3d e = c.translation_measured - c.translation_true;
+    error2 += e.cwiseAbs2();
+    normalised2 += e.cwiseQuotient(c.sigma_translation).cwiseAbs2();
+    EXPECT_LT(c.rotation_error_deg.norm(), 0.5);
+  }
+  const double n = static_cast<double>(r.odometry_checks.size());
+  EXPECT_LT((error2 / n).cwiseSqrt().maxCoeff(), 0.005) << "translation error RMS (m)";
+  EXPECT_LT((normalised2 / n).cwiseSqrt().maxCoeff(), 3.0) << "error / sigma RMS";
+  const std::string summary = odometry_check_summary(r);
+  EXPECT_NE(summary.find("translation error RMS"), std::string::npos) << summary;
+}
+
 TEST(ClosedLoopFlight, OdometryOutageHoldsOnTheImuAndRecovers) {
   FlightOptions o = small_options();
   o.vo_off_at_s = 2.0;
@@ -173,7 +196,7 @@ TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
   const FlightResult r = simulation.run(0.5);
   const auto dir = test::fresh_temp_dir("flight_report");
   const auto files = write_flight_logs(dir, r);
-  ASSERT_EQ(files.size(), 3u);
+  ASSERT_EQ(files.size(), 4u);
   std::ifstream estimator(dir / "estimator.csv");
   std::string header;
   ASSERT_TRUE(std::getline(estimator, header));
@@ -209,6 +232,17 @@ TEST(FlightReport, LogHasTheIssueColumnsAndOneRowPerControlStep) {
     EXPECT_EQ(std::count(line.begin(), line.end(), ','), 10) << line;
   }
   EXPECT_EQ(rows, r.samples.size());
+  // odometry.csv: one row per odometry measurement against the truth, 20 columns.
+  std::ifstream odometry(dir / "odometry.csv");
+  ASSERT_TRUE(std::getline(odometry, line));
+  EXPECT_EQ(line.rfind("t,t_ref,tx_true,", 0), 0u) << line;
+  EXPECT_EQ(std::count(line.begin(), line.end(), ','), 19) << line;
+  std::size_t odometry_rows = 0;
+  while (std::getline(odometry, line)) {
+    ++odometry_rows;
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 19) << line;
+  }
+  EXPECT_EQ(odometry_rows, r.odometry_checks.size());
   const auto plots = write_flight_plots(dir, r);
   for (const auto& p : plots) EXPECT_GT(std::filesystem::file_size(p), 1000u) << p;
   const std::string summary = flight_summary_line(r);

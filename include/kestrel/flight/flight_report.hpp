@@ -15,8 +15,9 @@ namespace kestrel::flight {
 /// (seconds, metres, world frame; vo_ok 0 or 1). The header is the first line.
 const std::vector<std::string>& flight_log_columns();
 
-/// Writes log.csv (flight_log_columns), details.csv (mode, filter sigma, command) and
-/// estimator.csv (FlightSample's estimator-against-truth fields) into `dir`, which the caller has
+/// Writes log.csv (flight_log_columns), details.csv (mode, filter sigma, command),
+/// estimator.csv (FlightSample's estimator-against-truth fields) and odometry.csv (every
+/// odometry measurement against the truth, OdometryCheck) into `dir`, which the caller has
 /// claimed (io::claim_output_dir). Throws InputError naming the file if writing fails. Returns the
 /// paths written.
 std::vector<std::filesystem::path> write_flight_logs(const std::filesystem::path& dir,
@@ -25,6 +26,11 @@ std::vector<std::filesystem::path> write_flight_logs(const std::filesystem::path
 /// Writes top_view.png and errors.png into `dir`; returns their paths.
 std::vector<std::filesystem::path> write_flight_plots(const std::filesystem::path& dir,
                                                       const FlightResult& result);
+
+/// One line on FlightResult::odometry_checks: the measurements' translation error RMS per camera
+/// axis (mm) and that error over the sigma sent with it, RMS per axis (about 1 where the
+/// odometry's covariance describes its errors).
+std::string odometry_check_summary(const FlightResult& result);
 
 /// "rms_tracking_m=<v> rms_estimate_m=<v> crashed=<0|1>".
 std::string flight_summary_line(const FlightResult& result);

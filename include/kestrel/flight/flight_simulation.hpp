@@ -129,12 +129,32 @@ struct RelocalizationEvent {
   double ms = 0.0;  ///< wall time of the relocalisation
 };
 
+/// One odometry measurement against the truth, which the simulation knows for both of its
+/// frames: the relative motion from the reference frame, in that camera's axes (x right, y down,
+/// z forward), beside the uncertainty sent with it to the filter (the tracker's covariance times
+/// `covariance_scale`, before the filter's adaptive scale). Where the estimate drifts, this says
+/// whether the odometry lied and in which direction (docs/flight.md, "Outputs").
+struct OdometryCheck {
+  double t_s = 0.0;                                                ///< the frame's time stamp (s)
+  double t_ref_s = 0.0;                                            ///< its reference frame's
+  Eigen::Vector3d translation_true = Eigen::Vector3d::Zero();      ///< m
+  Eigen::Vector3d translation_measured = Eigen::Vector3d::Zero();  ///< m
+  Eigen::Vector3d sigma_translation = Eigen::Vector3d::Zero();     ///< m
+  /// Log(R_true^T R_measured): the measured rotation's error about the reference axes (deg).
+  Eigen::Vector3d rotation_error_deg = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sigma_rotation_deg = Eigen::Vector3d::Zero();
+  bool geometric_fallback = false;  ///< the tracker's geometric fallback gave it
+  bool new_reference = false;       ///< the frame becomes the next reference (keyframe)
+  bool relocalised = false;         ///< a relocalisation across a gap gave it
+};
+
 struct FlightResult {
   std::string scenario;
   std::vector<FlightSample> samples;
   FlightCounters counters;
   std::vector<RelocalizationEvent> relocalizations;
-  double settle_s = 0.0;  ///< errors are scored from here on
+  std::vector<OdometryCheck> odometry_checks;  ///< every measurement the filter was sent
+  double settle_s = 0.0;                       ///< errors are scored from here on
   double duration_s = 0.0;
   bool crashed = false;
   bool interrupted = false;  ///< stopped early by the stop flag; duration_s is what was flown
