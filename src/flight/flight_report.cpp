@@ -1,6 +1,7 @@
 // Logs, figures and the summary line of a flight.
 #include "kestrel/flight/flight_report.hpp"
 
+#include <array>
 #include <cstdio>
 #include <fstream>
 #include <iomanip>
@@ -183,8 +184,27 @@ std::vector<fs::path> write_flight_plots(const fs::path& dir, const FlightResult
              column(result, [](const FlightSample& s) { return s.vo_ok ? 1.0 : 0.0; }));
   status.add("safety mode", t,
              column(result, [](const FlightSample& s) { return static_cast<double>(s.mode); }));
+  std::vector<eval::Plot> panels = {errors, altitude, status};
+  if (!result.odometry_checks.empty()) {
+    // odometry.csv at a glance: which axis of the measured motion errs, and when.
+    eval::Plot odometry;
+    odometry.title = "odometry measurement error against the truth (reference camera axes)";
+    odometry.x_label = "time [s]";
+    odometry.y_label = "error [mm]";
+    std::vector<double> tc;
+    std::array<std::vector<double>, 3> ec;
+    for (const OdometryCheck& c : result.odometry_checks) {
+      tc.push_back(c.t_s);
+      const Eigen::Vector3d d = 1000.0 * (c.translation_measured - c.translation_true);
+      for (int k = 0; k < 3; ++k) ec[static_cast<std::size_t>(k)].push_back(d[k]);
+    }
+    odometry.add("x (right)", tc, ec[0]);
+    odometry.add("y (down)", tc, ec[1]);
+    odometry.add("z (forward)", tc, ec[2]);
+    panels.push_back(odometry);
+  }
   const fs::path errors_path = dir / "errors.png";
-  eval::write_png(errors_path, eval::render_stacked({errors, altitude, status}));
+  eval::write_png(errors_path, eval::render_stacked(panels));
   return {top_path, errors_path};
 }
 
