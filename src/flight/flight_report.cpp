@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdio>
 #include <fstream>
+#include <initializer_list>
 #include <iomanip>
 #include <sstream>
 
@@ -26,10 +27,28 @@ void finish(std::ofstream& out, const fs::path& path) {
   if (!out) throw InputError(path.string() + ": write failed (disk full?)");
 }
 
+// One CSV file: the header line, then what `rows` writes; returns its path.
+template <typename Rows>
+fs::path write_csv(const fs::path& path, const std::string& header, Rows&& rows) {
+  std::ofstream out = open_for_writing(path);
+  out << header << '\n';
+  rows(out);
+  finish(out, path);
+  return path;
+}
+
 std::string fixed(double value, int decimals) {
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
   return buffer;
+}
+
+// Appends ",x,y,z" of each vector with `decimals` decimals: the CSVs' vector columns.
+void write_vectors(std::ostream& out, std::initializer_list<const Eigen::Vector3d*> vectors,
+                   int decimals) {
+  for (const Eigen::Vector3d* v : vectors) {
+    for (int k = 0; k < 3; ++k) out << ',' << fixed((*v)[k], decimals);
+  }
 }
 
 std::vector<double> column(const FlightResult& r,
@@ -50,70 +69,58 @@ const std::vector<std::string>& flight_log_columns() {
 }
 
 std::vector<fs::path> write_flight_logs(const fs::path& dir, const FlightResult& result) {
-  const fs::path log_path = dir / "log.csv";
-  {
-    std::ofstream out = open_for_writing(log_path);
-    const auto& columns = flight_log_columns();
-    for (std::size_t i = 0; i < columns.size(); ++i) out << (i > 0 ? "," : "") << columns[i];
-    out << '\n';
+  std::string log_header;
+  for (const std::string& c : flight_log_columns())
+    log_header += (log_header.empty() ? "" : ",") + c;
+  const fs::path log_path = write_csv(dir / "log.csv", log_header, [&](std::ostream& out) {
     for (const FlightSample& s : result.samples) {
       out << fixed(s.t_s, 3);
-      for (const Eigen::Vector3d* p : {&s.p_true, &s.p_ref, &s.p_est}) {
-        for (int k = 0; k < 3; ++k) out << ',' << fixed((*p)[k], 5);
-      }
+      write_vectors(out, {&s.p_true, &s.p_ref, &s.p_est}, 5);
       out << ',' << (s.vo_ok ? 1 : 0) << '\n';
     }
-    finish(out, log_path);
-  }
-  const fs::path details_path = dir / "details.csv";
-  {
-    std::ofstream out = open_for_writing(details_path);
-    out << "t,mode,position_sigma_m,roll_cmd_rad,pitch_cmd_rad,yaw_rate_cmd_rad_s,thrust_cmd_N,"
-           "crashed\n";
-    for (const FlightSample& s : result.samples) {
-      out << fixed(s.t_s, 3) << ',' << control::to_string(s.mode) << ','
-          << fixed(s.position_sigma_m, 5) << ',' << fixed(s.command.roll_rad, 5) << ','
-          << fixed(s.command.pitch_rad, 5) << ',' << fixed(s.command.yaw_rate_rad_s, 5) << ','
-          << fixed(s.command.thrust_N, 4) << ',' << (s.crashed ? 1 : 0) << '\n';
-    }
-    finish(out, details_path);
-  }
-  const fs::path estimator_path = dir / "estimator.csv";
-  {
-    std::ofstream out = open_for_writing(estimator_path);
-    out << "t,vx_true,vy_true,vz_true,vx_est,vy_est,vz_est,dth_x,dth_y,dth_z,ba_x_est,ba_y_est,"
-           "ba_z_est,ba_x_true,ba_y_true,ba_z_true,sp_x,sp_y,sp_z,sth_x,sth_y,sth_z,sv_x,sv_y,"
-           "sv_z\n";
-    for (const FlightSample& s : result.samples) {
-      out << fixed(s.t_s, 3);
-      for (const Eigen::Vector3d* v :
-           {&s.v_true, &s.v_est, &s.attitude_error_rad, &s.accel_bias_est, &s.accel_bias_true}) {
-        for (int k = 0; k < 3; ++k) out << ',' << fixed((*v)[k], 6);
-      }
-      for (int k = 0; k < 9; ++k) out << ',' << fixed(s.sigma_p_theta_v[k], 6);
-      out << '\n';
-    }
-    finish(out, estimator_path);
-  }
-  const fs::path odometry_path = dir / "odometry.csv";
-  {
-    std::ofstream out = open_for_writing(odometry_path);
-    out << "t,t_ref,tx_true,ty_true,tz_true,tx_meas,ty_meas,tz_meas,rx_err_deg,ry_err_deg,"
-           "rz_err_deg,sigma_tx,sigma_ty,sigma_tz,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,"
-           "fallback,new_reference,relocalised\n";
-    for (const OdometryCheck& c : result.odometry_checks) {
-      out << fixed(c.t_s, 4) << ',' << fixed(c.t_ref_s, 4);
-      for (const Eigen::Vector3d* v : {&c.translation_true, &c.translation_measured}) {
-        for (int k = 0; k < 3; ++k) out << ',' << fixed((*v)[k], 6);
-      }
-      for (int k = 0; k < 3; ++k) out << ',' << fixed(c.rotation_error_deg[k], 5);
-      for (int k = 0; k < 3; ++k) out << ',' << fixed(c.sigma_translation[k], 6);
-      for (int k = 0; k < 3; ++k) out << ',' << fixed(c.sigma_rotation_deg[k], 5);
-      out << ',' << (c.geometric_fallback ? 1 : 0) << ',' << (c.new_reference ? 1 : 0) << ','
-          << (c.relocalised ? 1 : 0) << '\n';
-    }
-    finish(out, odometry_path);
-  }
+  });
+  const fs::path details_path = write_csv(
+      dir / "details.csv",
+      "t,mode,position_sigma_m,roll_cmd_rad,pitch_cmd_rad,yaw_rate_cmd_rad_s,thrust_cmd_N,crashed",
+      [&](std::ostream& out) {
+        for (const FlightSample& s : result.samples) {
+          out << fixed(s.t_s, 3) << ',' << control::to_string(s.mode) << ','
+              << fixed(s.position_sigma_m, 5) << ',' << fixed(s.command.roll_rad, 5) << ','
+              << fixed(s.command.pitch_rad, 5) << ',' << fixed(s.command.yaw_rate_rad_s, 5) << ','
+              << fixed(s.command.thrust_N, 4) << ',' << (s.crashed ? 1 : 0) << '\n';
+        }
+      });
+  const fs::path estimator_path = write_csv(
+      dir / "estimator.csv",
+      "t,vx_true,vy_true,vz_true,vx_est,vy_est,vz_est,dth_x,dth_y,dth_z,ba_x_est,ba_y_est,"
+      "ba_z_est,ba_x_true,ba_y_true,ba_z_true,sp_x,sp_y,sp_z,sth_x,sth_y,sth_z,sv_x,sv_y,sv_z",
+      [&](std::ostream& out) {
+        for (const FlightSample& s : result.samples) {
+          out << fixed(s.t_s, 3);
+          write_vectors(
+              out,
+              {&s.v_true, &s.v_est, &s.attitude_error_rad, &s.accel_bias_est, &s.accel_bias_true},
+              6);
+          for (int k = 0; k < 9; ++k) out << ',' << fixed(s.sigma_p_theta_v[k], 6);
+          out << '\n';
+        }
+      });
+  const fs::path odometry_path = write_csv(
+      dir / "odometry.csv",
+      "t,t_ref,tx_true,ty_true,tz_true,tx_meas,ty_meas,tz_meas,rx_err_deg,ry_err_deg,rz_err_deg,"
+      "sigma_tx,sigma_ty,sigma_tz,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,fallback,new_reference,"
+      "relocalised",
+      [&](std::ostream& out) {
+        for (const OdometryCheck& c : result.odometry_checks) {
+          out << fixed(c.t_s, 4) << ',' << fixed(c.t_ref_s, 4);
+          write_vectors(out, {&c.translation_true, &c.translation_measured}, 6);
+          write_vectors(out, {&c.rotation_error_deg}, 5);
+          write_vectors(out, {&c.sigma_translation}, 6);
+          write_vectors(out, {&c.sigma_rotation_deg}, 5);
+          out << ',' << (c.geometric_fallback ? 1 : 0) << ',' << (c.new_reference ? 1 : 0) << ','
+              << (c.relocalised ? 1 : 0) << '\n';
+        }
+      });
   return {log_path, details_path, estimator_path, odometry_path};
 }
 
