@@ -2,6 +2,7 @@
 // on-board software.
 #include "kestrel/flight/flight_simulation.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -232,9 +233,10 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   const BodyTwist twist{truth.v_world, truth.omega_body};
   const TimeNs stamp_ns = t_ns - s_to_ns(options_.world.imu.camera_time_offset_s);
   // The on-board estimate at the frame (the filter's, carried to now by the IMU): the
-  // relocalisation's prior after a gap.
+  // relocalisation's prior after a gap, so not needed without relocalisation.
   std::optional<PoseEstimate> estimate;
-  if (const auto e = predictor_.predict(); e && control::finite_estimate(*e)) {
+  if (const auto e = options_.vision.relocalize_after_gap ? predictor_.predict() : std::nullopt;
+      e && control::finite_estimate(*e)) {
     estimate = PoseEstimate{SE3(e->R_world_body, e->p_world), position_sigma_m_};
   }
   const VisionFrame frame = vision_.process(stamp_ns, SE3(truth.R_world_body, truth.p_world),
@@ -249,8 +251,6 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
   if (vo_ok_) ++counters_.frames_tracked;
   const SE3 T_world_cam_true = SE3(truth.R_world_body, truth.p_world) * options_.vision.T_body_cam;
   if (frame.relocalization) {
-    ++counters_.relocalizations_tried;
-    if (frame.relocalization->ok()) ++counters_.relocalizations_ok;
     RelocalizationEvent e;
     e.t_s = t_s;
     e.result = *frame.relocalization;
@@ -337,6 +337,10 @@ FlightSample FlightLoop::control_step(TimeNs t_ns, double t_s) {
 FlightCounters FlightLoop::counters() const {
   FlightCounters c = counters_;
   c.fusion = fusion_.counters();
+  c.relocalizations_tried = relocalizations_.size();
+  c.relocalizations_ok = static_cast<std::size_t>(
+      std::count_if(relocalizations_.begin(), relocalizations_.end(),
+                    [](const RelocalizationEvent& e) { return e.result.ok(); }));
   return c;
 }
 
