@@ -541,14 +541,14 @@ namespace {
 // The residuals of one alignment and how its health is judged.
 struct AlignTerms {
   bool geometric = false;  ///< point-to-plane residuals with the photometric ones
-  /// The geometric fallback (blur): the photometric health is judged on the finest level whose
-  /// robust sigma passes max_sigma (a blurred image still agrees with the keyframe at the
-  /// scales the blur left), and the geometric residuals have health checks of their own.
+  /// The joint residual's health (the geometric fallback and terms.geometric: always): the
+  /// photometric health is judged on the finest level whose robust sigma passes max_sigma (a
+  /// blurred image still agrees with the keyframe at the scales the blur left), and the
+  /// geometric residuals have health checks of their own.
   bool fallback_checks = false;
 
-  static AlignTerms from(const DirectTrackerOptions& o) {
-    return {o.terms.geometric == GeometricTerm::kAlways, false};
-  }
+  static constexpr AlignTerms photometric() { return {false, false}; }
+  static constexpr AlignTerms joint() { return {true, true}; }
 };
 
 struct AlignOutcome {
@@ -696,17 +696,18 @@ struct AlignRunner {
   // (TermsOptions::geometric = fallback, FallbackOptions): on a high residual (blur), or when a
   // finer level left the coarser one's estimate by more than max_level_jump_px (the photometric
   // data are ambiguous at that scale: blur, rolling shutter, aliasing). The fallback's result
-  // replaces the photometric one only if it passes its own health checks.
+  // replaces the photometric one only if it passes its own health checks. With
+  // terms.geometric: always, the joint alignment alone (align_joint).
   static AlignOutcome align_with_fallback(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                                           const SE3& T_cur_ref_guess) {
-    AlignOutcome a = align(m, o, T_cur_ref_guess, AlignTerms::from(o));
-    const bool jumped = a.result.ok() && a.max_level_jump_px > o.fallback.max_level_jump_px;
+    if (o.terms.geometric == GeometricTerm::kAlways) return align_joint(m, o, T_cur_ref_guess);
+    AlignOutcome a = align(m, o, T_cur_ref_guess, AlignTerms::photometric());
     if (o.terms.geometric != GeometricTerm::kFallback || m.disparity_input ||
-        !(jumped || a.result.failure == TrackFailure::kHighResidual)) {
+        !(jumped(a, o) || a.result.failure == TrackFailure::kHighResidual)) {
       return a;
     }
     m.ensure_depth_pyramid(o);
-    AlignOutcome b = align(m, o, T_cur_ref_guess, {true, true});
+    AlignOutcome b = align(m, o, T_cur_ref_guess, AlignTerms::joint());
     b.result.iterations += a.result.iterations;
     if (!b.result.ok()) {
       a.result.iterations = b.result.iterations;
@@ -714,6 +715,24 @@ struct AlignRunner {
     }
     b.result.geometric_fallback = true;
     return b;
+  }
+
+  // terms.geometric: always: the joint residual on every pair, with the fallback's health checks
+  // (a blurred frame is judged where its images still agree with the keyframe's, not failed on
+  // its finest level). Where the photometric data alone would have called the fallback (the
+  // images agree only on a coarser level, or a finer level jumped), the frame is marked
+  // geometric_fallback and takes the fallback's policy: its rotation from the previous frame,
+  // and, blurred, it becomes the keyframe.
+  static AlignOutcome align_joint(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                                  const SE3& T_cur_ref_guess) {
+    AlignOutcome j = align(m, o, T_cur_ref_guess, AlignTerms::joint());
+    j.result.geometric_fallback =
+        j.result.ok() && (j.result.photometric_level > o.pyramid.finest_level || jumped(j, o));
+    return j;
+  }
+
+  [[nodiscard]] static bool jumped(const AlignOutcome& a, const DirectTrackerOptions& o) {
+    return a.result.ok() && a.max_level_jump_px > o.fallback.max_level_jump_px;
   }
 
   // The fallback's rotation against the previous frame
@@ -741,7 +760,7 @@ struct AlignRunner {
     m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
     // align() maps reference (current frame) points into the frame it samples (the previous).
-    const AlignOutcome b = align(m, levels, T_prev_cur_guess, {true, true});
+    const AlignOutcome b = align(m, levels, T_prev_cur_guess, AlignTerms::joint());
     m.swap_current_and_previous();
     std::swap(m.ref, m.current_ref);
     m.current_ref_levels = levels.pyramid.levels;

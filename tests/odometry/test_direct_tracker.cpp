@@ -285,6 +285,32 @@ TEST(DirectTracker, FallbackRotationFromThePreviousFrameFollowsABlurredPan) {
   EXPECT_LT(p_rot, 0.1);
 }
 
+// terms.geometric: always judges the joint alignment as the fallback judges its own: the blurred
+// frame of the pan agrees with the keyframe only on a coarser level, which is no failure, and it
+// takes the fallback's policy (its rotation from the previous frame, a new keyframe).
+TEST(DirectTracker, JointResidualOnEveryFrameTracksABlurredPan) {
+  DirectTrackerOptions always;
+  always.terms.geometric = GeometricTerm::kAlways;
+  const BlurredPanRun j = run_blurred_pan(always);
+  ASSERT_TRUE(j.blurred.ok()) << j.blurred.failure_detail;
+  EXPECT_GT(j.blurred.photometric_level, 0);
+  EXPECT_TRUE(j.blurred.geometric_fallback);
+  EXPECT_TRUE(j.blurred.fallback_rotation_from_previous);
+  EXPECT_TRUE(j.blurred.new_keyframe);
+  EXPECT_LT(translation_error_m(j.blurred.T_world_cam, j.T_gt), 3e-3);
+  EXPECT_LT(rotation_error_deg(j.blurred.T_world_cam, j.T_gt), 0.1);
+  // A sharp frame is tracked jointly without the fallback's policy.
+  const auto cam = test_camera();
+  const auto room = test::make_room();
+  const SE3 T = motion(0.01, 0.0, 0.005, 0.0, 2.0, 0.5);
+  const TrackResult sharp =
+      DirectTracker(cam, always).align_pair(render(room, cam, SE3()), render(room, cam, T));
+  ASSERT_TRUE(sharp.ok()) << sharp.failure_detail;
+  EXPECT_FALSE(sharp.geometric_fallback);
+  EXPECT_GT(sharp.depth_points, 0);
+  EXPECT_LT(translation_error_m(sharp.T_ref_cur, T), 1e-3);
+}
+
 // 100 frames of a still camera with real-like sensor noise, tracked with `options`.
 struct StillCameraRun {
   int within_target = 0;  // frames within the 0.1 mm

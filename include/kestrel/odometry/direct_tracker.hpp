@@ -91,7 +91,9 @@ struct TrackResult {
   bool new_keyframe = false;  ///< this frame became the reference for the next ones
   /// The photometric alignment failed (blur) or a finer level jumped away from the coarser
   /// one's estimate, and the geometric fallback was accepted by its own health checks
-  /// (TermsOptions::geometric = fallback, FallbackOptions).
+  /// (TermsOptions::geometric = fallback, FallbackOptions). With geometric = always: the joint
+  /// alignment's images agreed only on a coarser level, or a finer level jumped, and the
+  /// fallback's policy (FallbackOptions) was applied.
   bool geometric_fallback = false;
   /// The fallback's rotation came from the previous frame
   /// (FallbackOptions::rotation_from_previous_frame).

@@ -20,7 +20,9 @@ namespace kestrel::odometry {
 enum class GeometricTerm : std::uint8_t {
   kOff,       ///< never: photometric alignment alone
   kFallback,  ///< only for the pairs the photometric alignment cannot settle (FallbackOptions)
-  kAlways,    ///< on every pair, jointly with the photometric residual; no fallback
+  /// on every pair, jointly with the photometric residual, judged by the fallback's health
+  /// checks; frames the photometric data alone would have sent to the fallback take its policy
+  kAlways,
 };
 std::string_view to_string(GeometricTerm term);
 /// "off", "fallback" or "always"; throws std::invalid_argument otherwise (options-table hook,
