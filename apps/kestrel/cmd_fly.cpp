@@ -218,7 +218,8 @@ void add_fly_command(CLI::App& app) {
       ->capture_default_str()
       ->check(whole_in(0, 4294967295, "a seed, a whole number from 0 to 4294967295"));
   cmd->add_option("--out", args->out,
-                  "Output folder: log.csv, details.csv, estimator.csv, top_view.png, errors.png");
+                  "Output folder: log.csv, details.csv, estimator.csv, odometry.csv, top_view.png, "
+                  "errors.png");
   cmd->add_flag("--force", args->force, "Write into a folder that holds other files");
   cmd->add_flag("--list", args->list, "List the scenarios, then exit");
   cmd->add_option("--world", args->world,

@@ -129,7 +129,7 @@ std::string odometry_check_summary(const FlightResult& result) {
   if (checks.empty()) return "odometry against the truth: no measurement";
   Eigen::Vector3d error2 = Eigen::Vector3d::Zero(), normalised2 = Eigen::Vector3d::Zero();
   for (const OdometryCheck& c : checks) {
-    const Eigen::Vector3d e = c.translation_measured - c.translation_true;
+    const Eigen::Vector3d e = c.translation_error();
     error2 += e.cwiseAbs2();
     // (A zero sigma, which the tracker never reports, is floored at a nanometre.)
     normalised2 += e.cwiseQuotient(c.sigma_translation.cwiseMax(1e-9)).cwiseAbs2();
@@ -202,7 +202,7 @@ std::vector<fs::path> write_flight_plots(const fs::path& dir, const FlightResult
     std::array<std::vector<double>, 3> ec;
     for (const OdometryCheck& c : result.odometry_checks) {
       tc.push_back(c.t_s);
-      const Eigen::Vector3d d = 1000.0 * (c.translation_measured - c.translation_true);
+      const Eigen::Vector3d d = 1000.0 * c.translation_error();
       for (int k = 0; k < 3; ++k) ec[static_cast<std::size_t>(k)].push_back(d[k]);
     }
     odometry.add("x (right)", tc, ec[0]);

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <deque>
 #include <iterator>
-#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -113,10 +112,11 @@ class FlightLoop {
   double position_sigma_m_ = 0.0;
   fusion::FusedState last_fused_;
   FlightCounters counters_;
-  // The true camera pose of every frame since the current reference (by its time stamp): each
-  // measurement's and relocalisation's error is known here. Older frames are dropped as the
-  // reference moves on (odometry measurements only go back to it).
-  std::map<TimeNs, SE3> true_poses_;
+  // The true camera pose of every frame since the current reference, in stamp order (the stamps
+  // rise: no per-frame node allocations): each measurement's and relocalisation's error is known
+  // here. Older frames are dropped as the reference moves on (measurements only go back to it).
+  std::deque<std::pair<TimeNs, SE3>> true_poses_;
+  [[nodiscard]] const SE3* true_pose(TimeNs stamp_ns) const;
   std::vector<RelocalizationEvent> relocalizations_;
   std::vector<OdometryCheck> odometry_checks_;
 };
@@ -191,9 +191,9 @@ void FlightLoop::sense(TimeNs t_ns, double t_s) {
 void FlightLoop::check_odometry(const VisionFrame& frame, double t_s, const SE3& T_world_cam_true) {
   if (!frame.measurement) return;
   const fusion::RelativePoseMeasurement& m = *frame.measurement;
-  const auto ref = true_poses_.find(m.t_ref_ns);
-  if (m.t_ref_ns != m.t_ns && ref != true_poses_.end() && m.covariance.allFinite()) {
-    const SE3 T_true = ref->second.inverse() * T_world_cam_true;
+  const SE3* ref = true_pose(m.t_ref_ns);
+  if (m.t_ref_ns != m.t_ns && ref != nullptr && m.covariance.allFinite()) {
+    const SE3 T_true = ref->inverse() * T_world_cam_true;
     OdometryCheck c;
     c.t_s = t_s;
     c.t_ref_s = t_s - ns_to_s(m.t_ns - m.t_ref_ns);
@@ -210,7 +210,16 @@ void FlightLoop::check_odometry(const VisionFrame& frame, double t_s, const SE3&
   }
   // The reference of the next measurements: this frame if it starts one, else m's.
   const TimeNs keep_from = m.starts_new_reference ? m.t_ns : m.t_ref_ns;
-  true_poses_.erase(true_poses_.begin(), true_poses_.lower_bound(keep_from));
+  while (!true_poses_.empty() && true_poses_.front().first < keep_from) true_poses_.pop_front();
+}
+
+// The true pose of the frame stamped `stamp_ns`, or null where it is no longer (or never was)
+// kept.
+const SE3* FlightLoop::true_pose(TimeNs stamp_ns) const {
+  const auto it =
+      std::lower_bound(true_poses_.begin(), true_poses_.end(), stamp_ns,
+                       [](const std::pair<TimeNs, SE3>& p, TimeNs t) { return p.first < t; });
+  return it != true_poses_.end() && it->first == stamp_ns ? &it->second : nullptr;
 }
 
 // The frame is rendered from the true pose (with the world's blur and rolling shutter), is
@@ -255,9 +264,8 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     e.t_s = t_s;
     e.result = *frame.relocalization;
     e.ms = frame.relocalization_ms;
-    if (const auto ref = true_poses_.find(frame.relocalization_reference_ns);
-        ref != true_poses_.end()) {
-      const SE3 T_true = ref->second.inverse() * T_world_cam_true;
+    if (const SE3* ref = true_pose(frame.relocalization_reference_ns); ref != nullptr) {
+      const SE3 T_true = ref->inverse() * T_world_cam_true;
       const SE3 T_est = e.result.ok() ? e.result.T_ref_cur : e.result.T_ref_cur_pnp;
       const SE3 d = T_true.inverse() * T_est;
       e.translation_error_m = d.translation().norm();
@@ -265,7 +273,7 @@ void FlightLoop::camera_frame(TimeNs t_ns, double t_s) {
     }
     relocalizations_.push_back(e);
   }
-  true_poses_.emplace(stamp_ns, T_world_cam_true);
+  true_poses_.emplace_back(stamp_ns, T_world_cam_true);
   check_odometry(frame, t_s, T_world_cam_true);
   if (frame.measurement) {
     const InFlight m{t_ns + s_to_ns(link_.latency_s(options_.vision_latency_s)),

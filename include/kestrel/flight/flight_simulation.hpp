@@ -146,6 +146,11 @@ struct OdometryCheck {
   bool geometric_fallback = false;  ///< the tracker's geometric fallback gave it
   bool new_reference = false;       ///< the frame becomes the next reference (keyframe)
   bool relocalised = false;         ///< a relocalisation across a gap gave it
+
+  /// measured - true translation (m, reference camera axes).
+  [[nodiscard]] Eigen::Vector3d translation_error() const {
+    return translation_measured - translation_true;
+  }
 };
 
 struct FlightResult {
