@@ -280,8 +280,50 @@ void DistortedRayRow(const RayRow& ray, const DistortedPinhole& cam, float* map_
   distorted_ray_columns(ray, cam, map_x, map_y, u, width);
 }
 
-void RemapBilinearRow(const float* src, int stride, const std::int32_t* index, const float* wx,
-                      const float* wy, float* out, int width) {
+// Neighbouring output pixels of an undistortion map read neighbouring source pixels of one
+// row: when a vector's taps all lie within 2N consecutive source elements, two vector loads and
+// lane permutes give what four gathers would, for a fraction of the memory operations (the
+// gathers' load count; docs/odometry.md, "Remap by window"). The values are
+// the gathers' own, so both paths give the same bits.
+struct Window {
+  VF lo, hi;  // src[first .. first + N), src[first + N .. first + 2N)
+};
+
+HWY_INLINE Window LoadWindow(const float* at) {
+  const DF df;
+  return {hn::LoadU(df, at), hn::LoadU(df, at + hn::Lanes(df))};
+}
+
+// Per lane the window's element `offset` (0 <= offset < 2N).
+HWY_INLINE VF FromWindow(const Window& w, hn::Vec<DI> offset) {
+  const DF df;
+  const DI di;
+  const auto last = hn::Set(di, static_cast<std::int32_t>(hn::Lanes(df)) - 1);
+  const auto upper = hn::RebindMask(df, hn::Gt(offset, last));
+  const VF from_lo = hn::TableLookupLanes(w.lo, hn::IndicesFromVec(df, hn::Min(offset, last)));
+  const VF from_hi = hn::TableLookupLanes(
+      w.hi, hn::IndicesFromVec(
+                df, hn::Max(hn::Sub(hn::Sub(offset, last), hn::Set(di, 1)), hn::Zero(di))));
+  return hn::IfThenElse(upper, from_hi, from_lo);
+}
+
+// The smallest index of a vector if its indices, each with the `reach` elements after it, fit
+// one window of 2N elements, and that window and the one `below` elements further down lie
+// inside the source's `count` elements; -1 otherwise.
+HWY_INLINE std::int32_t WindowStart(hn::Vec<DI> index, std::int32_t reach, std::int64_t below,
+                                    std::int64_t count) {
+  const DI di;
+  const auto n = static_cast<std::int32_t>(hn::Lanes(di));
+  const std::int32_t first = hn::GetLane(hn::MinOfLanes(di, index));
+  const std::int32_t last = hn::GetLane(hn::MaxOfLanes(di, index));
+  const bool fits = first >= 0 && last - first + reach < 2 * n &&
+                    static_cast<std::int64_t>(first) + below + 2 * n <= count;
+  return fits ? first : -1;
+}
+
+void RemapBilinearRow(const float* src, int stride, std::int64_t src_count,
+                      const std::int32_t* index, const float* wx, const float* wy, float* out,
+                      int width) {
   const DF df;
   const DI di;
   const int n = static_cast<int>(hn::Lanes(df));
@@ -290,11 +332,24 @@ void RemapBilinearRow(const float* src, int stride, const std::int32_t* index, c
   int x = 0;
   for (; x + n <= width; x += n) {
     const auto i00 = hn::LoadU(di, index + x);
-    const auto i10 = hn::Add(i00, down);
-    const VF a = hn::GatherIndex(df, src, i00);
-    const VF b = hn::GatherIndex(df, src, hn::Add(i00, one));
-    const VF c = hn::GatherIndex(df, src, i10);
-    const VF d = hn::GatherIndex(df, src, hn::Add(i10, one));
+    VF a, b, c, d;
+    const std::int32_t first = WindowStart(i00, 1, stride, src_count);
+    if (first >= 0) {
+      const auto offset = hn::Sub(i00, hn::Set(di, first));
+      const auto offset_right = hn::Add(offset, one);
+      const Window top = LoadWindow(src + first);
+      const Window bottom = LoadWindow(src + first + stride);
+      a = FromWindow(top, offset);
+      b = FromWindow(top, offset_right);
+      c = FromWindow(bottom, offset);
+      d = FromWindow(bottom, offset_right);
+    } else {
+      const auto i10 = hn::Add(i00, down);
+      a = hn::GatherIndex(df, src, i00);
+      b = hn::GatherIndex(df, src, hn::Add(i00, one));
+      c = hn::GatherIndex(df, src, i10);
+      d = hn::GatherIndex(df, src, hn::Add(i10, one));
+    }
     const VF fx = hn::LoadU(df, wx + x);
     const VF top = hn::MulAdd(fx, hn::Sub(b, a), a);
     const VF bottom = hn::MulAdd(fx, hn::Sub(d, c), c);
@@ -303,7 +358,8 @@ void RemapBilinearRow(const float* src, int stride, const std::int32_t* index, c
   remap_bilinear_row_scalar(src, stride, index + x, wx + x, wy + x, out + x, width - x);
 }
 
-void RemapNearestRow(const float* src, const std::int32_t* index, float* out, int width) {
+void RemapNearestRow(const float* src, std::int64_t src_count, const std::int32_t* index,
+                     float* out, int width) {
   const DF df;
   const DI di;
   const int n = static_cast<int>(hn::Lanes(df));
@@ -311,6 +367,12 @@ void RemapNearestRow(const float* src, const std::int32_t* index, float* out, in
   int x = 0;
   for (; x + n <= width; x += n) {
     const auto i = hn::LoadU(di, index + x);
+    // A window only where every lane is inside (a negative index fails WindowStart).
+    const std::int32_t first = WindowStart(i, 0, 0, src_count);
+    if (first >= 0) {
+      hn::StoreU(FromWindow(LoadWindow(src + first), hn::Sub(i, hn::Set(di, first))), df, out + x);
+      continue;
+    }
     const auto outside = hn::RebindMask(df, hn::Lt(i, zero));
     // Outside pixels read src[0] (always valid) and are then zeroed.
     const VF v = hn::GatherIndex(df, src, hn::Max(i, zero));
@@ -359,13 +421,15 @@ void distorted_ray_row(const RayRow& ray, const DistortedPinhole& cam, float* ma
   HWY_DYNAMIC_DISPATCH(DistortedRayRow)(ray, cam, map_x, map_y, width);
 }
 
-void remap_bilinear_row(const float* src, int stride, const std::int32_t* index, const float* wx,
-                        const float* wy, float* out, int width) {
-  HWY_DYNAMIC_DISPATCH(RemapBilinearRow)(src, stride, index, wx, wy, out, width);
+void remap_bilinear_row(const float* src, int stride, std::int64_t src_count,
+                        const std::int32_t* index, const float* wx, const float* wy, float* out,
+                        int width) {
+  HWY_DYNAMIC_DISPATCH(RemapBilinearRow)(src, stride, src_count, index, wx, wy, out, width);
 }
 
-void remap_nearest_row(const float* src, const std::int32_t* index, float* out, int width) {
-  HWY_DYNAMIC_DISPATCH(RemapNearestRow)(src, index, out, width);
+void remap_nearest_row(const float* src, std::int64_t src_count, const std::int32_t* index,
+                       float* out, int width) {
+  HWY_DYNAMIC_DISPATCH(RemapNearestRow)(src, src_count, index, out, width);
 }
 
 const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }

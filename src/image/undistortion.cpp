@@ -101,8 +101,8 @@ void Undistorter::undistort_intensity(const cv::Mat& in, cv::Mat& out) const {
     cv::remap(in, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   } else {
     remap_rows(in, out, [this](const float* src, std::size_t row, float* dst, int w) {
-      kernels::remap_bilinear_row(src, w, bilinear_index_.data() + row, weight_x_.data() + row,
-                                  weight_y_.data() + row, dst, w);
+      kernels::remap_bilinear_row(src, w, source_count(), bilinear_index_.data() + row,
+                                  weight_x_.data() + row, weight_y_.data() + row, dst, w);
     });
   }
 }
@@ -115,7 +115,7 @@ void Undistorter::undistort_depth(const cv::Mat& in, cv::Mat& out) const {
               cv::Scalar(0));
   } else {
     remap_rows(in, out, [this](const float* src, std::size_t row, float* dst, int w) {
-      kernels::remap_nearest_row(src, nearest_index_.data() + row, dst, w);
+      kernels::remap_nearest_row(src, source_count(), nearest_index_.data() + row, dst, w);
     });
   }
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -185,7 +186,8 @@ TEST(ImageRowKernels, RemapBilinearEqualsTheScalarReferenceWithinFloatRounding) 
         wy[0] = 1.0F;
       }
       std::vector<float> simd(n, -1.0F), ref(simd);
-      remap_bilinear_row(src.data(), kStride, index.data(), wx.data(), wy.data(), simd.data(), w);
+      remap_bilinear_row(src.data(), kStride, std::ssize(src), index.data(), wx.data(), wy.data(),
+                         simd.data(), w);
       remap_bilinear_row_scalar(src.data(), kStride, index.data(), wx.data(), wy.data(), ref.data(),
                                 w);
       for (std::size_t i = 0; i < n; ++i) ASSERT_NEAR(simd[i], ref[i], 1e-6F) << "column " << i;
@@ -213,7 +215,7 @@ TEST(ImageRowKernels, RemapNearestEqualsTheScalarReferenceAndZeroesOutsidePixels
         index[1] = 7;
       }
       std::vector<float> simd(n, -1.0F), ref(simd);
-      remap_nearest_row(src.data(), index.data(), simd.data(), w);
+      remap_nearest_row(src.data(), std::ssize(src), index.data(), simd.data(), w);
       remap_nearest_row_scalar(src.data(), index.data(), ref.data(), w);
       EXPECT_TRUE(same_bits(simd, ref)) << "width " << w;
       std::vector<float> expected(n);
@@ -221,6 +223,58 @@ TEST(ImageRowKernels, RemapNearestEqualsTheScalarReferenceAndZeroesOutsidePixels
         expected[i] = index[i] < 0 ? 0.0F : src[static_cast<std::size_t>(index[i])];
       }
       EXPECT_TRUE(same_bits(ref, expected)) << "width " << w;
+    }
+  });
+}
+
+// An undistortion map's rows: neighbouring output pixels read neighbouring source pixels of one
+// row (the vector kernels' window path), with jumps between rows, a stretch and a squeeze of
+// the spacing, and rows at the source's last row (the window's reads near the buffer's end).
+std::vector<std::int32_t> neighbouring_taps(int width, int stride, int rows, int start_row,
+                                            float spacing) {
+  std::vector<std::int32_t> index(static_cast<std::size_t>(width));
+  for (int x = 0; x < width; ++x) {
+    const int row = std::min(rows - 1, start_row + x / 37);  // a row change every 37 pixels
+    const int col = std::clamp(static_cast<int>(std::floor(0.3F + spacing * static_cast<float>(x))),
+                               0, stride - 2);
+    index[static_cast<std::size_t>(x)] = row * stride + col;
+  }
+  return index;
+}
+
+TEST(ImageRowKernels, RemapOnNeighbouringTapsEqualsTheReference) {
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> value(0.0F, 1.0F);
+  constexpr int kStride = 160, kRows = 6;
+  std::vector<float> src(kStride * kRows);
+  for (auto& v : src) v = value(rng);
+  on_every_simd_target([&] {
+    for (const int w : {1, 15, 16, 17, 64, 100, 150}) {
+      for (const float spacing : {0.9F, 1.0F, 1.07F}) {
+        for (const int start_row : {0, kRows - 2, kRows - 1}) {
+          const auto n = static_cast<std::size_t>(w);
+          std::vector<float> wx(n), wy(n);
+          for (std::size_t i = 0; i < n; ++i) {
+            wx[i] = value(rng);
+            wy[i] = value(rng);
+          }
+          // Bilinear blocks need a row below: at most the second-to-last row.
+          const auto bilinear = neighbouring_taps(w, kStride, kRows - 1, start_row, spacing);
+          std::vector<float> simd(n, -1.0F), ref(simd);
+          remap_bilinear_row(src.data(), kStride, std::ssize(src), bilinear.data(), wx.data(),
+                             wy.data(), simd.data(), w);
+          remap_bilinear_row_scalar(src.data(), kStride, bilinear.data(), wx.data(), wy.data(),
+                                    ref.data(), w);
+          for (std::size_t i = 0; i < n; ++i) {
+            ASSERT_NEAR(simd[i], ref[i], 1e-6F) << "width " << w << " column " << i;
+          }
+          auto nearest = neighbouring_taps(w, kStride, kRows, start_row, spacing);
+          if (w > 20) nearest[5] = -1;  // one outside pixel in a vector of neighbours
+          remap_nearest_row(src.data(), std::ssize(src), nearest.data(), simd.data(), w);
+          remap_nearest_row_scalar(src.data(), nearest.data(), ref.data(), w);
+          EXPECT_TRUE(same_bits(simd, ref)) << "width " << w << " row " << start_row;
+        }
+      }
     }
   });
 }

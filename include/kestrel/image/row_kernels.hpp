@@ -56,15 +56,20 @@ void distorted_ray_row_scalar(const RayRow& ray, const DistortedPinhole& cam, fl
 /// whose top-left element is src[index[x]] (its lower row `stride` elements further) with the
 /// weights wx[x], wy[x] in [0, 1]: top = a + wx (b - a), bottom = c + wx (d - c),
 /// out = top + wy (bottom - top). Equal to the scalar reference within float rounding (the
-/// SIMD version may contract a multiply-add where the reference rounds twice).
-void remap_bilinear_row(const float* src, int stride, const std::int32_t* index, const float* wx,
-                        const float* wy, float* out, int width);
+/// SIMD version may contract a multiply-add where the reference rounds twice). `src` holds
+/// `src_count` elements: the SIMD version reads whole vectors near the taps where they lie close
+/// together, never past that count.
+void remap_bilinear_row(const float* src, int stride, std::int64_t src_count,
+                        const std::int32_t* index, const float* wx, const float* wy, float* out,
+                        int width);
 void remap_bilinear_row_scalar(const float* src, int stride, const std::int32_t* index,
                                const float* wx, const float* wy, float* out, int width);
 
 /// One row of a precomputed nearest-neighbour remap: out[x] = src[index[x]], or 0 where
 /// index[x] < 0 (the source pixel is outside the image). Equal to the reference bit for bit.
-void remap_nearest_row(const float* src, const std::int32_t* index, float* out, int width);
+/// `src` holds `src_count` elements (as for remap_bilinear_row).
+void remap_nearest_row(const float* src, std::int64_t src_count, const std::int32_t* index,
+                       float* out, int width);
 void remap_nearest_row_scalar(const float* src, const std::int32_t* index, float* out, int width);
 
 /// The SIMD target the row kernels dispatch to on this CPU (e.g. "AVX2", "NEON"), and every

@@ -30,6 +30,10 @@ class Undistorter {
  private:
   // Float images of the camera's size go through the tables, others through cv::remap.
   [[nodiscard]] bool by_table(const cv::Mat& in) const;
+  // Elements of a source image the tables read from (width x height floats).
+  [[nodiscard]] std::int64_t source_count() const {
+    return std::int64_t{undistorted_.width()} * undistorted_.height();
+  }
   // out's rows from `row_kernel(src, first index of the row, out row, width)`.
   template <class RowKernel>
   void remap_rows(const cv::Mat& in, cv::Mat& out, RowKernel row_kernel) const;
