@@ -5,6 +5,7 @@
 // SIGTERM stops after the current frame and writes what was done (exit status 130 / 143).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -502,7 +503,9 @@ void run_odometry(const OdometryArgs& args) {
             << "depth: " << sequence_options.depth_scale << " PNG units per metre"
             << (args.depth_scale ? " (--depth-scale)" : "") << "\n"
             << "rolling-shutter readout: " << described.rolling_shutter_readout_s
-            << " s (0: global shutter)\n";
+            << " s (0: global shutter)\n"
+            << "camera time offset: " << described.time_offset_s
+            << " s (a frame stamped t was exposed at t + offset: the poses carry that time)\n";
   print_options(options, args);
   if (sequence.size() == 0)
     throw InputError(args.dataset.string() + ": no associated rgb/depth frames");
@@ -511,6 +514,9 @@ void run_odometry(const OdometryArgs& args) {
 
   odometry::DirectTracker tracker(camera, options,
                                   odometry::RollingShutter{described.rolling_shutter_readout_s});
+  // Every frame moved to its exposure time on the reference clock (the tracker uses only
+  // differences of stamps, which a constant offset leaves as they are).
+  const auto offset_ns = static_cast<TimeNs>(std::llround(described.time_offset_s * 1e9));
   Trajectory trajectory;
   trajectory.reserve(sequence.size());
   RunTally tally;
@@ -522,11 +528,11 @@ void run_odometry(const OdometryArgs& args) {
       sequence.size(), "odometry", args, interrupt, tally, frame_log, trajectory,
       [&](std::size_t i) { return sequence.load(i); },
       [&](const io::RgbdImages& images, std::size_t) -> std::optional<TrackedFrame> {
-        const odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m};
+        const odometry::RgbdFrame frame{images.t_ns + offset_ns, images.bgr, images.depth_m};
         const auto t0 = std::chrono::steady_clock::now();
         odometry::TrackResult r = tracker.track(frame);
         const double track_ms = ms_since(t0);
-        return TrackedFrame{images.t_ns, std::move(r), track_ms};
+        return TrackedFrame{frame.t_ns, std::move(r), track_ms};
       });
   finish_run(args, trajectory, frame_log, tally, strict_stop, interrupt);
   std::cout << "wrote " << args.out.string() << " (" << trajectory.size() << " poses, "
@@ -563,7 +569,8 @@ void add_odometry_command(CLI::App& app) {
                   "figures, as `kestrel evaluate --plot` (needs the folder's ground truth)");
   cmd->add_option("--camera", args->camera,
                   "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN); a "
-                  "Kestrel camera file may give depth_scale and rolling_shutter_readout_s");
+                  "Kestrel camera file may give depth_scale, rolling_shutter_readout_s and "
+                  "time_offset_s");
   cmd->add_option("--depth-scale", args->depth_scale,
                   "depth PNG units per metre, overriding the camera's (TUM RGB-D: 5000; many "
                   "other RGB-D recordings: 1000)")

@@ -1,5 +1,6 @@
 // Tracks a TUM RGB-D folder with Kestrel's direct tracker and prints the trajectory in TUM
 // format (`t tx ty tz qx qy qz qw`), as `kestrel odometry` writes it.
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -20,10 +21,13 @@ int main(int argc, char** argv) {
     const kestrel::io::TumRgbdSequence sequence(argv[1]);
     kestrel::odometry::DirectTracker tracker(
         camera.camera, {}, kestrel::odometry::RollingShutter{camera.rolling_shutter_readout_s});
+    // The camera's stamp offset: poses carry the exposure time, as in `kestrel odometry`.
+    const auto offset_ns = static_cast<kestrel::TimeNs>(std::llround(camera.time_offset_s * 1e9));
     int failures = 0;
     for (std::size_t i = 0; i < sequence.size(); ++i) {
       const kestrel::io::RgbdImages images = sequence.load(i);
-      const kestrel::odometry::RgbdFrame frame{images.t_ns, images.bgr, images.depth_m};
+      const kestrel::odometry::RgbdFrame frame{images.t_ns + offset_ns, images.bgr,
+                                               images.depth_m};
       const kestrel::odometry::TrackResult r = tracker.track(frame);
       failures += r.ok() ? 0 : 1;
       const Eigen::Vector3d& t = r.T_world_cam.translation();

@@ -125,6 +125,14 @@ void read_sensor_facts(const YAML::Node& map, const fs::path& path, CameraFile& 
     }
     out.rolling_shutter_readout_s = readout;
   }
+  if (const YAML::Node n = map["time_offset_s"]) {
+    const auto offset = yaml_as<double>(n, path, "camera.time_offset_s");
+    if (!(offset >= -1.0 && offset <= 1.0)) {
+      throw InputError(path, "camera.time_offset_s",
+                       "must be in [-1, 1] s (a frame stamped t was exposed at t + offset)");
+    }
+    out.time_offset_s = offset;
+  }
 }
 
 CameraFile load_kestrel(const YAML::Node& root, const fs::path& path) {

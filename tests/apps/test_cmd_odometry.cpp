@@ -124,6 +124,36 @@ TEST_F(CmdOdometry, DepthScaleScalesTheTranslations) {
   EXPECT_FALSE(fs::exists(dir_ / "z.txt"));
 }
 
+// The camera file's time_offset_s: a frame stamped t was exposed at t + offset; the trajectory
+// and the per-frame log carry the exposure times, the poses are those of the run without it.
+TEST_F(CmdOdometry, CameraTimeOffsetMovesTheStampsNotThePoses) {
+  const RunResult plain = odometry("--out " + path("plain.txt") + " --frames " + path("p.csv"));
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  { std::ofstream(dir_ / "small.yaml", std::ios::app) << "  time_offset_s: -0.0125\n"; }
+  const RunResult moved = odometry("--out " + path("moved.txt") + " --frames " + path("m.csv"));
+  ASSERT_EQ(moved.exit_code, 0) << moved.err;
+  EXPECT_NE(moved.err.find("camera time offset: -0.0125 s"), std::string::npos) << moved.err;
+  const auto a = kestrel::io::read_tum_trajectory(dir_ / "plain.txt");
+  const auto b = kestrel::io::read_tum_trajectory(dir_ / "moved.txt");
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(b[i].t_ns, a[i].t_ns - 12'500'000) << "pose " << i;
+    EXPECT_EQ(b[i].T_world_body.matrix(), a[i].T_world_body.matrix()) << "pose " << i;
+  }
+  // The log's t_ns column (the second) moves alike.
+  const auto plain_log = lines_of(slurp(dir_ / "p.csv"));
+  const auto moved_log = lines_of(slurp(dir_ / "m.csv"));
+  ASSERT_EQ(plain_log.size(), moved_log.size());
+  const auto t_of = [](const std::string& row) {
+    const auto first = row.find(',');
+    return std::stoll(row.substr(first + 1, row.find(',', first + 1) - first - 1));
+  };
+  for (std::size_t i = 2; i < plain_log.size(); ++i) {
+    EXPECT_EQ(t_of(moved_log[i]), t_of(plain_log[i]) - 12'500'000) << moved_log[i];
+  }
+}
+
 // --plot DIR: the evaluation's files (as `kestrel evaluate --plot`) next to the run; refused,
 // before any work, without ground truth or over a folder Kestrel did not write.
 TEST_F(CmdOdometry, PlotWritesTheEvaluationFilesAndNeedsGroundTruth) {

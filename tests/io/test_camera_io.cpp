@@ -91,21 +91,28 @@ TEST(CameraYaml, SensorFactsAreReadAndChecked) {
   const CameraFile plain = load_camera_file(dir / "plain.yaml");
   EXPECT_FALSE(plain.depth_scale);
   EXPECT_EQ(plain.rolling_shutter_readout_s, 0.0);
-  std::ofstream(dir / "rgbd.yaml")
-      << pinhole << "  depth_scale: 1000\n  rolling_shutter_readout_s: 0.02\n";
+  EXPECT_EQ(plain.time_offset_s, 0.0);
+  std::ofstream(dir / "rgbd.yaml") << pinhole
+                                   << "  depth_scale: 1000\n  rolling_shutter_readout_s: 0.02\n"
+                                      "  time_offset_s: -0.012\n";
   const CameraFile rgbd = load_camera_description((dir / "rgbd.yaml").string());
   EXPECT_EQ(rgbd.depth_scale, 1000.0);
   EXPECT_EQ(rgbd.rolling_shutter_readout_s, 0.02);
+  EXPECT_EQ(rgbd.time_offset_s, -0.012);
   for (const char* preset : {"fr1", "fr2", "fr3", "ros"}) {
     const CameraFile p = load_camera_description(preset);
     EXPECT_EQ(p.depth_scale, 5000.0) << preset;
     EXPECT_EQ(p.rolling_shutter_readout_s, 0.0) << preset;
+    EXPECT_EQ(p.time_offset_s, 0.0) << preset;
   }
   for (const auto& [line, field] :
        {std::pair{"  depth_scale: 0\n", "camera.depth_scale"},
         std::pair{"  depth_scale: many\n", "camera.depth_scale"},
         std::pair{"  rolling_shutter_readout_s: -0.01\n", "camera.rolling_shutter_readout_s"},
-        std::pair{"  rolling_shutter_readout_s: .nan\n", "camera.rolling_shutter_readout_s"}}) {
+        std::pair{"  rolling_shutter_readout_s: .nan\n", "camera.rolling_shutter_readout_s"},
+        std::pair{"  time_offset_s: 2\n", "camera.time_offset_s"},
+        std::pair{"  time_offset_s: .nan\n", "camera.time_offset_s"},
+        std::pair{"  time_offset_s: soon\n", "camera.time_offset_s"}}) {
     std::ofstream(dir / "bad.yaml") << pinhole << line;
     try {
       load_camera_file(dir / "bad.yaml");

@@ -30,6 +30,10 @@ struct CameraFile {
   /// Time from reading out the first image row to the last (`rolling_shutter_readout_s`, s): a
   /// rolling-shutter camera exposes its rows one after another. 0 = global shutter.
   double rolling_shutter_readout_s = 0.0;
+  /// The camera's stamp offset (`time_offset_s`, s): a frame stamped t was exposed at t +
+  /// time_offset_s on the reference clock (the IMU's or the motion capture's), the convention of
+  /// the fusion's t_d (FusionOptions::time_offset_s). 0 where not measured.
+  double time_offset_s = 0.0;
 };
 
 /// Loads either format (detected from the keys). Errors name the file and field.
