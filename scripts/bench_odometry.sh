@@ -5,7 +5,12 @@
 # every TUM folder in ../shared/data/tum (camera fr1/fr2/fr3 from the folder name) and rendered
 # ones (`kestrel render`, Kinect-like depth noise). Prints a table per sequence and the totals.
 #
-#   scripts/bench_odometry.sh [--tum-only] [BUILD_DIR] [CORE]
+#   scripts/bench_odometry.sh [--tum-only] [--repeat N] [BUILD_DIR] [CORE]
+#     --repeat N every method runs N times on each sequence, the methods interleaved (A B C, A B
+#                C, ...), and ms/frame is the median of the N runs' means, their range printed
+#                under the table; default 1. On a shared or virtual machine a single run's time
+#                moves by tens of percent with the neighbours' load: N = 3-5 makes the ratio
+#                between the methods hold.
 #     BUILD_DIR  default build/release (targets kestrel, peer_opencv_odometry and, where Open3D
 #                is installed, peer_open3d_odometry; a missing peer is left out with a note)
 #     CORE       default 0
@@ -18,10 +23,17 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tum_only=0
-if [[ ${1:-} == --tum-only ]]; then
-  tum_only=1
-  shift
-fi
+repeat=1
+while [[ ${1:-} == --* ]]; do
+  case "$1" in
+    --tum-only) tum_only=1; shift ;;
+    --repeat)
+      [[ ${2:-} =~ ^[1-9][0-9]?$ ]] ||
+        { echo "bench_odometry.sh: --repeat takes a whole number from 1 to 99" >&2; exit 2; }
+      repeat=$2; shift 2 ;;
+    *) echo "bench_odometry.sh: unknown option '$1' (options: --tum-only, --repeat N)" >&2; exit 2 ;;
+  esac
+done
 build=${1:-build/release}
 core=${2:-0}
 data_dir=${KESTREL_DATA_DIR:-../shared/data}
@@ -95,7 +107,7 @@ if [[ $tum_only -eq 0 ]]; then
   done
 fi
 
-declare -A total_frames total_failures total_ms total_ate total_rt total_rr
+declare -A total_frames total_failures total_ms total_ate total_rt total_rr median_ms
 for m in "${methods[@]}"; do
   total_frames[$m]=0 total_failures[$m]=0 total_ms[$m]=0 total_ate[$m]=0 total_rt[$m]=0 total_rr[$m]=0
 done
@@ -108,9 +120,25 @@ for seq in "${sequences[@]}"; do
   # shellcheck disable=SC2059
   printf "$row_format" method frames failures ms/frame "ATE m" "RPE m/s" "RPE deg/s"
   echo "$row_line"
+  # The runs, interleaved: every method once per round. The trajectory evaluated is the first
+  # round's (each method is deterministic); the times are every round's.
+  declare -A run_ms=() first=()
+  for ((r = 1; r <= repeat; r++)); do
+    for m in "${methods[@]}"; do
+      tag=$(tr -c 'a-zA-Z0-9' _ <<< "$m")
+      out="$tmp/$tag.txt"
+      [[ $r -gt 1 ]] && out="$tmp/${tag}_again.txt"
+      read -r frames failures ms <<< "$(run_method "$m" "$seq" "$out")"
+      [[ $r -eq 1 ]] && first[$m]="$frames $failures"
+      run_ms[$m]="${run_ms[$m]:-} $ms"
+    done
+  done
   for m in "${methods[@]}"; do
     tag=$(tr -c 'a-zA-Z0-9' _ <<< "$m")
-    read -r frames failures ms <<< "$(run_method "$m" "$seq" "$tmp/$tag.txt")"
+    read -r frames failures <<< "${first[$m]}"
+    ms=$(tr ' ' '\n' <<< "${run_ms[$m]}" | grep . | sort -g |
+      awk '{ v[NR] = $1 } END { print (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2) }')
+    median_ms[$m]=$ms
     read -r ate rt rr <<< "$(evaluate "$seq/groundtruth.txt" "$tmp/$tag.txt")"
     printf '| %-30s | %6d | %8d | %8.2f | %8.4f | %8.4f | %9.3f |\n' "$m" "$frames" "$failures" \
       "$ms" "$ate" "$rt" "$rr"
@@ -121,6 +149,18 @@ for seq in "${sequences[@]}"; do
     total_rt[$m]=$(awk -v a="${total_rt[$m]}" -v x="$rt" 'BEGIN { print a + x }')
     total_rr[$m]=$(awk -v a="${total_rr[$m]}" -v x="$rr" 'BEGIN { print a + x }')
   done
+  if [[ $repeat -gt 1 ]]; then
+    echo "ms/frame: median of $repeat interleaved runs; each method's range:"
+    for m in "${methods[@]}"; do
+      tr ' ' '\n' <<< "${run_ms[$m]}" | grep . | sort -g |
+        awk -v name="$m" 'NR == 1 { lo = $1 } { hi = $1 } END { printf "  %-30s %.2f-%.2f\n", name, lo, hi }'
+    done
+  fi
+  # The issue-26 figure: Kestrel's time against OpenCV RgbdOdometry's, from the same runs.
+  if [[ -n ${median_ms["OpenCV RgbdOdometry"]:-} ]]; then
+    awk -v k="${median_ms["kestrel odometry (defaults)"]}" -v o="${median_ms["OpenCV RgbdOdometry"]}" \
+      'BEGIN { if (o > 0) printf "kestrel / RgbdOdometry time: %.3fx\n", k / o }'
+  fi
 done
 
 n=${#sequences[@]}
@@ -136,3 +176,8 @@ for m in "${methods[@]}"; do
     'BEGIN { printf "| %-30s | %6d | %8d | %8.2f | %8.4f | %8.4f | %9.3f |\n",
              name, f, fail, (f > 0 ? ms / f : 0), ate / n, rt / n, rr / n }'
 done
+if [[ -n ${median_ms["OpenCV RgbdOdometry"]:-} ]]; then
+  k="kestrel odometry (defaults)" o="OpenCV RgbdOdometry"
+  awk -v k="${total_ms[$k]}" -v o="${total_ms[$o]}" \
+    'BEGIN { if (o > 0) printf "kestrel / RgbdOdometry time over all frames: %.3fx\n", k / o }'
+fi
