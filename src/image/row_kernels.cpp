@@ -298,12 +298,13 @@ HWY_INLINE Window LoadWindow(const float* at) {
 HWY_INLINE VF FromWindow(const Window& w, hn::Vec<DI> offset) {
   const DF df;
   const DI di;
-  const auto last = hn::Set(di, static_cast<std::int32_t>(hn::Lanes(df)) - 1);
+  const auto lanes = hn::Set(di, static_cast<std::int32_t>(hn::Lanes(df)));
+  const auto last = hn::Sub(lanes, hn::Set(di, 1));
+  // Each lookup's indices kept within its vector; the blend takes the right one.
   const auto upper = hn::RebindMask(df, hn::Gt(offset, last));
   const VF from_lo = hn::TableLookupLanes(w.lo, hn::IndicesFromVec(df, hn::Min(offset, last)));
   const VF from_hi = hn::TableLookupLanes(
-      w.hi, hn::IndicesFromVec(
-                df, hn::Max(hn::Sub(hn::Sub(offset, last), hn::Set(di, 1)), hn::Zero(di))));
+      w.hi, hn::IndicesFromVec(df, hn::Max(hn::Sub(offset, lanes), hn::Zero(di))));
   return hn::IfThenElse(upper, from_hi, from_lo);
 }
 
