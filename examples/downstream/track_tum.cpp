@@ -26,8 +26,7 @@ int main(int argc, char** argv) {
     int failures = 0;
     for (std::size_t i = 0; i < sequence.size(); ++i) {
       const kestrel::io::RgbdImages images = sequence.load(i);
-      const kestrel::odometry::RgbdFrame frame{images.t_ns + offset_ns, images.bgr,
-                                               images.depth_m};
+      const kestrel::odometry::RgbdFrame frame{images.t_ns + offset_ns, images.bgr, images.depth_m};
       const kestrel::odometry::TrackResult r = tracker.track(frame);
       failures += r.ok() ? 0 : 1;
       const Eigen::Vector3d& t = r.T_world_cam.translation();
