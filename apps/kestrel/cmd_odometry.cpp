@@ -5,7 +5,6 @@
 // SIGTERM stops after the current frame and writes what was done (exit status 130 / 143).
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -21,6 +20,7 @@
 #include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/stopwatch.hpp"
+#include "kestrel/core/time.hpp"
 #include "kestrel/eval/csv_writer.hpp"
 #include "kestrel/eval/evaluation.hpp"
 #include "kestrel/io/camera_io.hpp"
@@ -516,7 +516,7 @@ void run_odometry(const OdometryArgs& args) {
                                   odometry::RollingShutter{described.rolling_shutter_readout_s});
   // Every frame moved to its exposure time on the reference clock (the tracker uses only
   // differences of stamps, which a constant offset leaves as they are).
-  const auto offset_ns = static_cast<TimeNs>(std::llround(described.time_offset_s * 1e9));
+  const TimeNs offset_ns = s_to_ns(described.time_offset_s);
   Trajectory trajectory;
   trajectory.reserve(sequence.size());
   RunTally tally;

@@ -1,10 +1,10 @@
 // Tracks a TUM RGB-D folder with Kestrel's direct tracker and prints the trajectory in TUM
 // format (`t tx ty tz qx qy qz qw`), as `kestrel odometry` writes it.
-#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <string>
 
+#include "kestrel/core/time.hpp"
 #include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 #include "kestrel/io/tum_rgbd.hpp"
@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
     kestrel::odometry::DirectTracker tracker(
         camera.camera, {}, kestrel::odometry::RollingShutter{camera.rolling_shutter_readout_s});
     // The camera's stamp offset: poses carry the exposure time, as in `kestrel odometry`.
-    const auto offset_ns = static_cast<kestrel::TimeNs>(std::llround(camera.time_offset_s * 1e9));
+    const kestrel::TimeNs offset_ns = kestrel::s_to_ns(camera.time_offset_s);
     int failures = 0;
     for (std::size_t i = 0; i < sequence.size(); ++i) {
       const kestrel::io::RgbdImages images = sequence.load(i);
