@@ -2,7 +2,9 @@
 // Jacobian of Park et al. 2017, Open3D's default) frame to frame on a TUM RGB-D folder, single
 // threaded, writing a TUM trajectory (first frame at the identity) and the per-frame time.
 //
-//   peer_open3d_odometry DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]
+//   peer_open3d_odometry DATASET_DIR OUT.txt [fr1|fr2|fr3|ros|CAMERA.yaml]
+//
+// The camera: the one named, else the folder's camera.yaml, else its freiburgN preset.
 //
 // Frames come from kestrel's own TUM reader (the association of `kestrel odometry`); images are
 // not undistorted, and Open3D's defaults are kept (depth up to 4 m, as its TUM loader, and
@@ -24,18 +26,14 @@
 int main(int argc, char** argv) {
   using namespace kestrel;
   if (argc < 3) {
-    std::cerr << "usage: " << argv[0] << " DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]\n";
+    std::cerr << "usage: " << argv[0] << " DATASET_DIR OUT.txt [fr1|fr2|fr3|ros|CAMERA.yaml]\n";
     return 2;
   }
   try {
     const io::TumRgbdSequence seq(argv[1]);
-    const auto camera = io::camera_preset(argc > 3 ? argv[3] : "fr1");
-    if (!camera) {
-      std::cerr << "unknown camera preset\n";
-      return 2;
-    }
-    peer::Open3dOdometry odometry({camera->width(), camera->height(), camera->fx(), camera->fy(),
-                                   camera->cx(), camera->cy()});
+    const PinholeCamera camera = peer::peer_camera(argv[1], argc > 3 ? argv[3] : nullptr);
+    peer::Open3dOdometry odometry(
+        {camera.width(), camera.height(), camera.fx(), camera.fy(), camera.cx(), camera.cy()});
     peer::ChainedRun run;
     cv::Mat rgb, depth;
     for (std::size_t i = 0; i < seq.size(); ++i) {

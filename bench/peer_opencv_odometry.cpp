@@ -3,7 +3,9 @@
 // RGB-D folder, single threaded, writing a TUM trajectory (first frame at the identity) and the
 // per-frame time.
 //
-//   peer_opencv_odometry rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]
+//   peer_opencv_odometry rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros|CAMERA.yaml]
+//
+// The camera: the one named, else the folder's camera.yaml, else its freiburgN preset.
 //
 // Frames come from kestrel's own TUM reader (same association as `kestrel odometry`); images are
 // not undistorted (OpenCV's odometry assumes a pinhole image, as its users feed it). Prints
@@ -27,7 +29,8 @@
 int main(int argc, char** argv) {
   using namespace kestrel;
   if (argc < 4) {
-    std::cerr << "usage: " << argv[0] << " rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros]\n";
+    std::cerr << "usage: " << argv[0]
+              << " rgbd|icp DATASET_DIR OUT.txt [fr1|fr2|fr3|ros|CAMERA.yaml]\n";
     return 2;
   }
   const std::string method = argv[1];
@@ -38,14 +41,10 @@ int main(int argc, char** argv) {
   try {
     cv::setNumThreads(1);
     const io::TumRgbdSequence seq(argv[2]);
-    const auto camera = io::camera_preset(argc > 4 ? argv[4] : "fr1");
-    if (!camera) {
-      std::cerr << "unknown camera preset\n";
-      return 2;
-    }
-    cv::Mat K = (cv::Mat_<float>(3, 3) << static_cast<float>(camera->fx()), 0.F,
-                 static_cast<float>(camera->cx()), 0.F, static_cast<float>(camera->fy()),
-                 static_cast<float>(camera->cy()), 0.F, 0.F, 1.F);
+    const PinholeCamera camera = peer::peer_camera(argv[2], argc > 4 ? argv[4] : nullptr);
+    cv::Mat K = (cv::Mat_<float>(3, 3) << static_cast<float>(camera.fx()), 0.F,
+                 static_cast<float>(camera.cx()), 0.F, static_cast<float>(camera.fy()),
+                 static_cast<float>(camera.cy()), 0.F, 0.F, 1.F);
     cv::Ptr<cv::rgbd::Odometry> odometry;
     if (method == "rgbd") {
       odometry = cv::rgbd::RgbdOdometry::create(K);

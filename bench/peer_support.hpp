@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "kestrel/core/time.hpp"
+#include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/trajectory.hpp"
 #include "kestrel/io/trajectory_io.hpp"
 
@@ -55,5 +57,18 @@ class ChainedRun {
   std::vector<double> ms_;
   int failures_ = 0;
 };
+
+/// The pinhole model a peer runs with: the preset or camera file named on its command line, else
+/// the one `kestrel odometry` would take for the folder (its camera.yaml, else freiburgN's
+/// preset), so that the peers and Kestrel see the same intrinsics. Throws when neither says.
+inline PinholeCamera peer_camera(const std::filesystem::path& dataset, const char* named) {
+  std::string name = named != nullptr ? named : io::camera_for_folder(dataset);
+  if (name.empty()) {
+    throw std::runtime_error(dataset.string() +
+                             ": no camera.yaml and no freiburgN in the name: name a camera "
+                             "(fr1|fr2|fr3|ros|FILE.yaml)");
+  }
+  return io::load_camera(name);
+}
 
 }  // namespace kestrel::peer

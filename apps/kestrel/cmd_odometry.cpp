@@ -442,14 +442,6 @@ void run_stereo_odometry(const OdometryArgs& args) {
   print_summary(tally.ms, tally.processed, tally.failures);
 }
 
-std::string default_camera_for(const std::filesystem::path& folder) {
-  const std::string name = std::filesystem::absolute(folder).lexically_normal().string();
-  if (name.find("freiburg1") != std::string::npos) return "fr1";
-  if (name.find("freiburg2") != std::string::npos) return "fr2";
-  if (name.find("freiburg3") != std::string::npos) return "fr3";
-  return {};
-}
-
 void run_odometry(const OdometryArgs& args) {
   if (args.stereo) {
     run_stereo_odometry(args);
@@ -462,11 +454,11 @@ void run_odometry(const OdometryArgs& args) {
         "--sgm-options need --stereo");
   }
   std::string camera_name = args.camera;
-  if (camera_name.empty()) camera_name = default_camera_for(args.dataset);
+  if (camera_name.empty()) camera_name = io::camera_for_folder(args.dataset);
   if (camera_name.empty()) {
     throw InputError(args.dataset.string() +
-                     ": the folder name does not say which camera (freiburg1/2/3): give "
-                     "--camera fr1|fr2|fr3|ros|FILE.yaml");
+                     ": no camera.yaml in the folder and its name does not say which camera "
+                     "(freiburg1/2/3): give --camera fr1|fr2|fr3|ros|FILE.yaml");
   }
   // The camera description: the pinhole model, the depth scale and the rolling-shutter readout.
   const io::CameraFile described = io::load_camera_description(camera_name);
@@ -487,9 +479,7 @@ void run_odometry(const OdometryArgs& args) {
       outputs.input("dataset", f.file);
     }
   }
-  if (!args.camera.empty() && std::filesystem::exists(args.camera)) {
-    outputs.input("--camera", args.camera);
-  }
+  if (std::filesystem::exists(camera_name)) outputs.input("--camera", camera_name);
   outputs.text_file("--out", args.out).text_file("--frames", args.frames);
   io::TumRgbdOptions sequence_options;
   sequence_options.depth_scale =
@@ -568,9 +558,9 @@ void add_odometry_command(CLI::App& app) {
                   "folder for the evaluation's per-axis and RPE CSVs, the aligned estimate and PNG "
                   "figures, as `kestrel evaluate --plot` (needs the folder's ground truth)");
   cmd->add_option("--camera", args->camera,
-                  "fr1|fr2|fr3|ros|FILE.yaml (default: from the folder name, freiburgN); a "
-                  "Kestrel camera file may give depth_scale, rolling_shutter_readout_s and "
-                  "time_offset_s");
+                  "fr1|fr2|fr3|ros|FILE.yaml (default: the folder's camera.yaml, as `kestrel "
+                  "render` writes, else from the folder name, freiburgN); a Kestrel camera file "
+                  "may give depth_scale, rolling_shutter_readout_s and time_offset_s");
   cmd->add_option("--depth-scale", args->depth_scale,
                   "depth PNG units per metre, overriding the camera's (TUM RGB-D: 5000; many "
                   "other RGB-D recordings: 1000)")

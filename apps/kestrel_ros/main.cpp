@@ -72,7 +72,8 @@ int main(int argc, char** argv) {
       ->required();
   make->add_option("--out", make_args->out, "the .bag to write")->required();
   make->add_option("--camera", make_args->camera,
-                   "fr1|fr2|fr3|ros|FILE.yaml for camera_info (default: from the folder name)");
+                   "fr1|fr2|fr3|ros|FILE.yaml for camera_info (default: the folder's camera.yaml, "
+                   "else from the folder name)");
   make->add_option("--max-frames", make_args->max_frames, "0: every associated frame")
       ->capture_default_str();
   make->add_option("--compression", make_args->compression, "none, lz4 or bz2")

@@ -352,11 +352,11 @@ void run_make_bag(const MakeBagArgs& args) {
     throw std::runtime_error("--compression: none, lz4 or bz2, got '" + args.compression + "'");
   }
   std::string camera_name = args.camera;
-  if (camera_name.empty()) camera_name = camera_preset_for_name(args.tum);
+  if (camera_name.empty()) camera_name = camera_for_tum_folder(args.tum);
   if (camera_name.empty()) {
     throw std::runtime_error(args.tum +
-                             ": the folder name does not say which camera "
-                             "(freiburg1/2/3): give --camera fr1|fr2|fr3|ros|FILE.yaml");
+                             ": no camera.yaml in the folder and its name does not say which "
+                             "camera (freiburg1/2/3): give --camera fr1|fr2|fr3|ros|FILE.yaml");
   }
   const CameraModel camera = load_camera_model(camera_name);
   const TumFolder folder(args.tum);

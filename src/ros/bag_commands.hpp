@@ -31,9 +31,9 @@ struct BagOdometryArgs {
 void run_bag_odometry(const BagOdometryArgs& args);
 
 struct MakeBagArgs {
-  std::string tum;                  ///< TUM RGB-D folder
-  std::string out;                  ///< .bag to write
-  std::string camera;               ///< for camera_info; empty: from the folder name (freiburgN)
+  std::string tum;     ///< TUM RGB-D folder
+  std::string out;     ///< .bag to write
+  std::string camera;  ///< for camera_info; empty: the folder's camera.yaml, else its freiburgN
   std::size_t max_frames = 0;       ///< 0: every associated frame
   std::string compression = "lz4";  ///< none, lz4, bz2
   bool force = false;

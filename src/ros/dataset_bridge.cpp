@@ -5,6 +5,7 @@
 
 #include <filesystem>
 
+#include "kestrel/io/camera_io.hpp"
 #include "kestrel/io/euroc.hpp"
 #include "kestrel/io/output_guard.hpp"
 #include "kestrel/io/trajectory_io.hpp"
@@ -25,6 +26,10 @@ std::string camera_preset_for_name(const std::string& path) {
   if (name.find("freiburg2") != std::string::npos) return "fr2";
   if (name.find("freiburg3") != std::string::npos) return "fr3";
   return {};
+}
+
+std::string camera_for_tum_folder(const std::string& folder) {
+  return io::camera_for_folder(folder);
 }
 
 void check_can_write_output(const std::string& path, const std::string& command, bool force) {

@@ -95,6 +95,36 @@ TEST_F(CmdOdometry, RefusesAFramesLogThatIsTheTrajectoryOrAForeignFile) {
   EXPECT_EQ(slurp(dir_ / "notes.csv"), "my notes\n");
 }
 
+// Without --camera the folder's own camera.yaml is the camera (`kestrel render` writes the
+// distortion-free model it rendered with; the freiburgN preset of a rendered fr1 folder would
+// add a lens distortion the images do not have). With neither the file nor a freiburgN name the
+// run stops before any work and says what to give.
+TEST_F(CmdOdometry, TakesTheFoldersOwnCameraFileByDefault) {
+  const RunResult named = odometry("--out " + path("named.txt"));
+  ASSERT_EQ(named.exit_code, 0) << named.err;
+  const RunResult own =
+      kestrel::test::run_kestrel(dir_, "odometry " + path("seq") + " --out " + path("own.txt"));
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  EXPECT_NE(own.err.find("camera " + (dir_ / "seq" / "camera.yaml").string()), std::string::npos)
+      << own.err;
+  const auto a = kestrel::io::read_tum_trajectory(dir_ / "named.txt");
+  const auto b = kestrel::io::read_tum_trajectory(dir_ / "own.txt");
+  ASSERT_EQ(a.size(), 6U);
+  ASSERT_EQ(b.size(), a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].t_ns, b[i].t_ns);
+    EXPECT_LT((a[i].T_world_body.inverse() * b[i].T_world_body).log().norm(), 1e-12) << i;
+  }
+
+  fs::remove(dir_ / "seq" / "camera.yaml");
+  const RunResult none =
+      kestrel::test::run_kestrel(dir_, "odometry " + path("seq") + " --out " + path("none.txt"));
+  EXPECT_NE(none.exit_code, 0);
+  EXPECT_NE(none.err.find("camera.yaml"), std::string::npos) << none.err;
+  EXPECT_NE(none.err.find("--camera"), std::string::npos) << none.err;
+  EXPECT_FALSE(fs::exists(dir_ / "none.txt"));
+}
+
 // --depth-scale: the depth PNGs' units per metre. The rendered folder is written in TUM's 5000;
 // read as 10000 every depth halves, and so does every translation (the rotations stay).
 TEST_F(CmdOdometry, DepthScaleScalesTheTranslations) {

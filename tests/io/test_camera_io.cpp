@@ -24,6 +24,26 @@ TEST(CameraPresets, TumValues) {
   EXPECT_THROW(load_camera("no-such-camera"), InputError);
 }
 
+// The camera of a TUM-layout folder where none is named: its camera.yaml, which wins over a
+// freiburgN in its path; else the preset the path names; else nothing.
+TEST(CameraForFolder, OwnFileThenTheNamesPreset) {
+  const auto root = kestrel::test::fresh_temp_dir("camera_for_folder");
+  const auto fr1 = root / "rgbd_dataset_freiburg1_x";
+  const auto plain = root / "rendered";
+  std::filesystem::create_directories(fr1);
+  std::filesystem::create_directories(plain);
+  EXPECT_EQ(camera_for_folder(fr1), "fr1");
+  EXPECT_EQ(camera_for_folder(root / "rgbd_dataset_freiburg3_y"), "fr3");
+  EXPECT_EQ(camera_for_folder(plain), "");
+  save_camera_yaml(plain / "camera.yaml", PinholeCamera({100.0, 100.0, 49.5, 39.5, 100, 80}),
+                   "test");
+  save_camera_yaml(fr1 / "camera.yaml", PinholeCamera({100.0, 100.0, 49.5, 39.5, 100, 80}), "test");
+  EXPECT_EQ(camera_for_folder(plain), (plain / "camera.yaml").string());
+  EXPECT_EQ(camera_for_folder(fr1), (fr1 / "camera.yaml").string());
+  EXPECT_EQ(load_camera(camera_for_folder(plain)).fx(), 100.0);
+  std::filesystem::remove_all(root);
+}
+
 TEST(CameraYaml, RoundTripKeepsEveryValue) {
   const auto dir = test::fresh_temp_dir("io");
   const PinholeCamera cam({458.654, 457.296, 367.215, 248.375, 752, 480},

@@ -48,6 +48,12 @@ PinholeCamera camera_from_yaml(const YAML::Node& map, const std::filesystem::pat
 /// A preset name or a file path: the pinhole model alone (load_camera_description's camera).
 PinholeCamera load_camera(const std::string& preset_or_path);
 
+/// The camera a TUM-layout folder was recorded with, where the user named none: the folder's own
+/// `camera.yaml` (what `kestrel render` writes, with the distortion-free model it rendered), else
+/// the TUM preset its path names (freiburg1/2/3 -> fr1/fr2/fr3), else "" (the caller asks for one).
+/// The file wins over the name: it describes this recording, the name only its camera family.
+std::string camera_for_folder(const std::filesystem::path& folder);
+
 /// Kestrel's YAML for a rectified stereo pair: `stereo:` map with f, cu, cv, baseline_m,
 /// width, height.
 RectifiedStereo load_rectified_stereo(const std::filesystem::path& path);

@@ -29,6 +29,10 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_stamps(
 /// the folder), else empty.
 std::string camera_preset_for_name(const std::string& path);
 
+/// A TUM folder's camera as `kestrel odometry` picks it (io::camera_for_folder): the folder's
+/// camera.yaml, else the preset its name says, else empty.
+std::string camera_for_tum_folder(const std::string& folder);
+
 /// The output guard (io/output_guard.hpp): throws unless `path` may be written by `command`.
 void check_can_write_output(const std::string& path, const std::string& command, bool force);
 
