@@ -545,6 +545,60 @@ float SelectKth(float* v, int n, int k) {
   return v[k];
 }
 
+// The neighbours' depths valid and within the spread of the centre's (surface_normal_at).
+HWY_INLINE MF same_surface(VF z, VF z0, VF limit) {
+  const DF df;
+  const MF in_range = hn::And(hn::Gt(z, hn::Zero(df)), hn::Lt(z, hn::Set(df, 1e3F)));
+  return hn::And(in_range, hn::Not(hn::Gt(hn::Abs(hn::Sub(z, z0)), limit)));
+}
+
+// surface_normal_row (alignment_kernels.hpp): the reference's float operations, in its order,
+// a vector of pixels at a time.
+void SurfaceNormalRow(const NormalRow& r, float* nx, float* ny, std::uint8_t* ok) {
+  const DF df;
+  const DI di;
+  const int n = static_cast<int>(hn::Lanes(df));
+  const VF zero = hn::Zero(df);
+  const VF cx = hn::Set(df, r.cx), fx = hn::Set(df, r.fx), spread = hn::Set(df, r.max_spread);
+  const VF ix = hn::Set(df, 1.0F / r.fx);
+  const float yv_s = (static_cast<float>(r.v) - r.cy) / r.fy, iy_s = 1.0F / r.fy;
+  const VF yv = hn::Set(df, yv_s), yp = hn::Set(df, yv_s + iy_s), ym = hn::Set(df, yv_s - iy_s);
+  const VF fifth = hn::Set(df, 0.2F), step = hn::Set(df, static_cast<float>(n));
+  // The column numbers stepped by a vector add (Iota in the loop would go through the stack).
+  VF fu = hn::ConvertTo(df, hn::Iota(di, 1));
+  int u = 1;
+  for (; u + n <= r.width - 1; u += n, fu = hn::Add(fu, step)) {
+    const VF z0 = hn::LoadU(df, r.mid + u);
+    const VF zl = hn::LoadU(df, r.mid + u - 1), zr = hn::LoadU(df, r.mid + u + 1);
+    const VF zu = hn::LoadU(df, r.up + u), zd = hn::LoadU(df, r.down + u);
+    const VF limit = hn::Mul(spread, z0);
+    MF m = hn::And(hn::And(same_surface(zl, z0, limit), same_surface(zr, z0, limit)),
+                   hn::And(same_surface(zu, z0, limit), same_surface(zd, z0, limit)));
+    const VF xu = hn::Div(hn::Sub(fu, cx), fx);
+    const VF ax = hn::Sub(hn::Mul(hn::Add(xu, ix), zr), hn::Mul(hn::Sub(xu, ix), zl));
+    const VF ay = hn::Mul(yv, hn::Sub(zr, zl)), az = hn::Sub(zr, zl);
+    const VF bx = hn::Mul(xu, hn::Sub(zd, zu));
+    const VF by = hn::Sub(hn::Mul(yp, zd), hn::Mul(ym, zu)), bz = hn::Sub(zd, zu);
+    VF n0 = hn::Sub(hn::Mul(ay, bz), hn::Mul(az, by));
+    VF n1 = hn::Sub(hn::Mul(az, bx), hn::Mul(ax, bz));
+    const VF n2 = hn::Sub(hn::Mul(ax, by), hn::Mul(ay, bx));
+    const VF len = hn::Sqrt(hn::Add(hn::Add(hn::Mul(n0, n0), hn::Mul(n1, n1)), hn::Mul(n2, n2)));
+    m = hn::And(m, hn::Gt(len, zero));
+    const VF px = hn::Mul(xu, z0), py = hn::Mul(yv, z0);
+    VF dot = hn::Div(hn::Add(hn::Add(hn::Mul(n0, px), hn::Mul(n1, py)), hn::Mul(n2, z0)), len);
+    const MF flip = hn::Gt(dot, zero);
+    n0 = hn::IfThenElse(flip, hn::Neg(n0), n0);
+    n1 = hn::IfThenElse(flip, hn::Neg(n1), n1);
+    dot = hn::IfThenElse(flip, hn::Neg(dot), dot);
+    const VF ray = hn::Sqrt(hn::Add(hn::Add(hn::Mul(px, px), hn::Mul(py, py)), hn::Mul(z0, z0)));
+    m = hn::And(m, hn::Gt(hn::Neg(dot), hn::Mul(fifth, ray)));
+    hn::StoreU(hn::Div(n0, len), df, nx + u);
+    hn::StoreU(hn::Div(n1, len), df, ny + u);
+    store_valid(m, ok + u);
+  }
+  surface_normal_columns(r, u, r.width - 1, nx, ny, ok);
+}
+
 const char* TargetName() { return hwy::TargetName(HWY_TARGET); }
 
 // The scalar references' entry points, one per target like the kernels' (the public *_scalar
@@ -596,6 +650,7 @@ HWY_EXPORT(GatherAbsValid);
 HWY_EXPORT(SelectKth);
 HWY_EXPORT(NormalEquations6);
 HWY_EXPORT(NormalEquations8);
+HWY_EXPORT(SurfaceNormalRow);
 HWY_EXPORT(TargetName);
 HWY_EXPORT(WarpResidualsScalar);
 HWY_EXPORT(WarpPointToPlaneScalar);
@@ -723,6 +778,10 @@ template <>
 void accumulate_normal_equations_scalar<8>(const float* const* J, int count, const float* w,
                                            const float* r, Matrix8d& H, Vector8d& g) {
   HWY_DYNAMIC_DISPATCH(NormalEquations8Scalar)(J, count, w, r, H, g);
+}
+
+void surface_normal_row(const NormalRow& row, float* nx, float* ny, std::uint8_t* ok) {
+  HWY_DYNAMIC_DISPATCH(SurfaceNormalRow)(row, nx, ny, ok);
 }
 
 const char* simd_target() { return HWY_DYNAMIC_DISPATCH(TargetName)(); }

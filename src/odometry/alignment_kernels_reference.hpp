@@ -36,4 +36,8 @@ WeightSums tukey_weights_range(const float* residual, const std::uint8_t* valid,
 void bracket_range(const float* residual, const std::uint8_t* valid, int begin, int count, float lo,
                    float hi, MedianBracket& b, float* scratch);
 
+/// surface_normal_row_scalar over columns [from, to): the SIMD version's last columns.
+void surface_normal_columns(const NormalRow& row, int from, int to, float* nx, float* ny,
+                            std::uint8_t* ok);
+
 }  // namespace kestrel::odometry::kernels

@@ -61,6 +61,11 @@ image::Interpolation level_sampling(const DirectTrackerOptions& o, bool finest) 
                                                  : image::Interpolation::kBilinear;
 }
 
+// The geometric fallback's candidates by normal direction: 5 x 5 bins over the normal's x and y
+// (TrackerAccess::bin_normals).
+constexpr int kNormalBins = 5;
+using NormalBins = std::array<std::vector<int>, kNormalBins * kNormalBins>;
+
 }  // namespace
 
 struct DirectTracker::Impl {
@@ -83,6 +88,16 @@ struct DirectTracker::Impl {
   // Levels [finest, current_ref_levels) of current_ref hold this frame's reference data (the
   // fallback's rotation built them): a keyframe switch on this frame takes them (0: none).
   int current_ref_levels = 0;
+  // Per level, the keyframe's points for the geometric fallback's point-to-plane term
+  // (TrackerAccess::build_plane_level): a normal-space sample of its depth pixels, built from
+  // the keyframe's depth levels (kept, copied, for it) when the fallback first needs them.
+  std::vector<ReferenceLevel> plane;
+  std::vector<cv::Mat> ref_depth;
+  bool plane_built = false;
+  // bin_normals' buffers, kept across keyframes: its bins and one row's normals.
+  NormalBins normal_bins;
+  std::vector<float> row_nx, row_ny;
+  std::vector<std::uint8_t> row_ok;
   bool has_ref = false;
   TimeNs ref_t_ns = 0;
   SE3 T_world_ref;
@@ -125,6 +140,8 @@ struct DirectTracker::Impl {
     const auto n = static_cast<std::size_t>(levels);
     ref.resize(n);
     current_ref.resize(n);
+    plane.resize(n);
+    ref_depth.resize(n);
     gx.resize(n);
     gy.resize(n);
     photometric_median_hint.assign(n, 0.0F);
@@ -275,23 +292,47 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 
 struct TrackerAccess {
   // Reference building: gradients, selection and the precomputed IC Jacobians per level, from
-  // `first_level` up (the finer ones already hold this frame's; by default none do).
+  // `first_level` up (the finer ones already hold this frame's; by default none do), and, for a
+  // keyframe (`keyframe`) with the geometric fallback, the fallback's points on every level.
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
-                              const std::vector<PinholeCamera>& cams, int first_level = -1) {
+                              const std::vector<PinholeCamera>& cams, int first_level = -1,
+                              bool keyframe = true) {
     prepare_reference_maps(m, o);
     const int finest = o.pyramid.finest_level;
     for (int l = std::max(first_level, finest); l < o.pyramid.levels; ++l) {
       build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l);
     }
+    if (keyframe && o.terms.geometric == GeometricTerm::kFallback && !m.disparity_input) {
+      for (int l = finest; l < o.pyramid.levels; ++l) {
+        m.depth_pyramid.level(l).copyTo(m.ref_depth[static_cast<std::size_t>(l)]);
+      }
+      m.plane_built = false;
+    }
     std::size_t max_count = 0;
     for (int l = finest; l < o.pyramid.levels; ++l) {
       max_count = std::max(max_count, m.ref[static_cast<std::size_t>(l)].x.size());
     }
+    reserve_buffers(m, max_count);
+    m.has_ref = true;
+  }
+
+  // The geometric fallback's points of the keyframe (Impl::plane), built once per keyframe.
+  static void ensure_plane_points(DirectTracker::Impl& m, const DirectTrackerOptions& o) {
+    if (m.plane_built) return;
+    std::size_t max_count = 0;
+    for (int l = o.pyramid.finest_level; l < o.pyramid.levels; ++l) {
+      build_plane_level(m, o, m.level_cameras[static_cast<std::size_t>(l)], l);
+      max_count = std::max(max_count, m.plane[static_cast<std::size_t>(l)].x.size());
+    }
+    reserve_buffers(m, max_count);
+    m.plane_built = true;
+  }
+
+  static void reserve_buffers(DirectTracker::Impl& m, std::size_t max_count) {
     if (m.abs_residual.size() < max_count) m.abs_residual.resize(max_count);
     m.photometric_buffers.reserve(max_count);
     m.geometric_buffers.reserve(max_count);
     m.geometric_buffers.reserve_jacobian(max_count);
-    m.has_ref = true;
   }
 
   // The per-level maps the points are read from. With the geometric residual, prepare_frame()
@@ -339,6 +380,22 @@ struct TrackerAccess {
       L.median_depth = kernels::select_kth(m.depth_scratch.data(), count, count / 2);
     } else {
       L.median_depth = 0.0;
+    }
+    set_depth_noise_scale(o, L);
+  }
+
+  // The point-to-plane residuals' depth-noise scales (ReferenceLevel::depth_noise_scale).
+  static void set_depth_noise_scale(const DirectTrackerOptions& o, ReferenceLevel& L) {
+    L.depth_noise_scale.clear();
+    if (o.terms.geometric == GeometricTerm::kOff || !(o.terms.depth_noise_per_m > 0.0) ||
+        !(L.median_depth > 0.0)) {
+      return;
+    }
+    L.depth_noise_scale.assign(L.x.size(), 0.0F);
+    const auto zm = static_cast<float>(L.median_depth);
+    for (std::size_t k = 0; k < static_cast<std::size_t>(L.count); ++k) {
+      const float s = zm / L.z[k];
+      L.depth_noise_scale[k] = s * s;
     }
   }
 
@@ -488,6 +545,116 @@ struct TrackerAccess {
     if (n.dot(P) > 0.0) n = -n;
     return -n.dot(P) > 0.2 * P.norm();  // not grazing: within ~78 deg of the viewing ray
   }
+
+  // The geometric fallback's points on level l of the keyframe (Impl::plane): the depth pixels
+  // with a reliable normal, a normal-space sample (Rusinkiewicz & Levoy 2001) of
+  // selection.max_points. The photometric points sit on intensity edges, often at depth
+  // edges; these are spread over the surfaces and over the normals' directions, so that every
+  // direction of the motion is held by some surface.
+  static void build_plane_level(DirectTracker::Impl& m, const DirectTrackerOptions& o,
+                                const PinholeCamera& cam, int l) {
+    const ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
+    ReferenceLevel& G = m.plane[static_cast<std::size_t>(l)];
+    const cv::Mat& dep = m.ref_depth[static_cast<std::size_t>(l)];
+    G.fx = L.fx;
+    G.fy = L.fy;
+    G.cx = L.cx;
+    G.cy = L.cy;
+    G.width = L.width;
+    G.height = L.height;
+    G.median_depth = L.median_depth;
+    const auto spread = static_cast<float>(o.terms.depth_max_relative_spread);
+    bin_normals(m, dep, cam, spread, o);
+    sample_bins(m.normal_bins, o.selection.max_points, m.selected);
+    const int n = static_cast<int>(m.selected.size());
+    reset_points(G, n, static_cast<std::size_t>(pad_to_lanes(n)));
+    for (int i = 0; i < n; ++i) {
+      const int idx = m.selected[static_cast<std::size_t>(i)];
+      const int u = idx % dep.cols;
+      const int v = idx / dep.cols;
+      const double z = dep.ptr<float>()[idx];
+      const PointDepth pd{back_project(cam, u, v, z), z, u, v};
+      const auto k = static_cast<std::size_t>(i);
+      G.x[k] = static_cast<float>(pd.P.x());
+      G.y[k] = static_cast<float>(pd.P.y());
+      G.z[k] = static_cast<float>(pd.P.z());
+      add_normal(o, PointSource{dep, dep, dep, dep, cam, {}}, pd, k, G);
+    }
+    set_depth_noise_scale(o, G);
+  }
+
+  static Eigen::Vector3d back_project(const PinholeCamera& cam, int u, int v, double z) {
+    return {(u - cam.cx()) / cam.fx() * z, (v - cam.cy()) / cam.fy() * z, z};
+  }
+
+  // The pixels of a grid of at least ~4 x selection.max_points over the depth level (its step
+  // rounded down) whose depth is in the selection's range and whose normal is reliable, each in
+  // its normal's bin (m.normal_bins). The normals of a sampled row are computed for all its
+  // columns at once (kernels::surface_normal_row, SIMD).
+  static void bin_normals(DirectTracker::Impl& m, const cv::Mat& dep, const PinholeCamera& cam,
+                          float spread, const DirectTrackerOptions& o) {
+    NormalBins& bins = m.normal_bins;
+    for (auto& b : bins) b.clear();
+    // selection.max_points 0 (no limit): every pixel is a candidate.
+    const int n = o.selection.max_points;
+    const double cells = n > 0 ? static_cast<double>(dep.cols) * dep.rows / (4.0 * n) : 1.0;
+    const int step = std::max(1, static_cast<int>(std::sqrt(cells)));
+    const auto zmin = static_cast<float>(o.selection.min_depth_m);
+    const auto zmax = static_cast<float>(o.selection.max_depth_m);
+    const auto w = static_cast<std::size_t>(dep.cols);
+    m.row_nx.resize(w);
+    m.row_ny.resize(w);
+    m.row_ok.resize(w);
+    kernels::NormalRow row;
+    row.width = dep.cols;
+    row.fx = static_cast<float>(cam.fx());
+    row.fy = static_cast<float>(cam.fy());
+    row.cx = static_cast<float>(cam.cx());
+    row.cy = static_cast<float>(cam.cy());
+    row.max_spread = 2.0F * spread;
+    auto bin = [](float c) {
+      return std::clamp(static_cast<int>((c + 1.0F) * 0.5F * kNormalBins), 0, kNormalBins - 1);
+    };
+    for (int v = 1; v < dep.rows - 1; v += step) {
+      row.up = dep.ptr<float>(v - 1);
+      row.mid = dep.ptr<float>(v);
+      row.down = dep.ptr<float>(v + 1);
+      row.v = v;
+      kernels::surface_normal_row(row, m.row_nx.data(), m.row_ny.data(), m.row_ok.data());
+      for (int u = 1; u < dep.cols - 1; u += step) {
+        const auto c = static_cast<std::size_t>(u);
+        if (!(row.mid[u] >= zmin && row.mid[u] <= zmax) || m.row_ok[c] == 0) continue;
+        bins[static_cast<std::size_t>(bin(m.row_ny[c]) * kNormalBins + bin(m.row_nx[c]))].push_back(
+            v * dep.cols + u);
+      }
+    }
+  }
+
+  // Up to n candidates (n <= 0: all), as evenly over the bins as they allow (equal shares; what a
+  // small bin leaves goes to the others), each bin's share spread evenly over its candidates.
+  static void sample_bins(const NormalBins& bins, int n, std::vector<int>& out) {
+    std::array<std::size_t, kNormalBins * kNormalBins> quota{};
+    std::size_t total = 0;
+    for (const auto& b : bins) total += b.size();
+    std::size_t left = n > 0 ? std::min(total, static_cast<std::size_t>(n)) : total;
+    while (left > 0) {
+      std::size_t open = 0;
+      for (std::size_t b = 0; b < bins.size(); ++b) open += quota[b] < bins[b].size() ? 1 : 0;
+      if (open == 0) break;
+      const std::size_t share = std::max<std::size_t>(1, left / open);
+      for (std::size_t b = 0; b < bins.size() && left > 0; ++b) {
+        const std::size_t add = std::min({share, bins[b].size() - quota[b], left});
+        quota[b] += add;
+        left -= add;
+      }
+    }
+    out.clear();
+    for (std::size_t b = 0; b < bins.size(); ++b) {
+      for (std::size_t j = 0; j < quota[b]; ++j) {
+        out.push_back(bins[b][j * bins[b].size() / quota[b]]);
+      }
+    }
+  }
 };
 
 namespace {
@@ -546,9 +713,22 @@ struct AlignTerms {
   /// blurred image still agrees with the keyframe at the scales the blur left), and the
   /// geometric residuals have health checks of their own.
   bool fallback_checks = false;
+  /// The point-to-plane term on the keyframe's own points (Impl::plane) instead of the
+  /// photometric ones: the geometric fallback against the keyframe.
+  bool plane_points = false;
 
-  static constexpr AlignTerms photometric() { return {false, false}; }
-  static constexpr AlignTerms joint() { return {true, true}; }
+  static constexpr AlignTerms photometric() { return {false, false, false}; }
+  static constexpr AlignTerms joint() { return {true, true, false}; }
+  /// The geometric fallback against the keyframe: the joint residual, its point-to-plane term on
+  /// the keyframe's own points.
+  static constexpr AlignTerms keyframe_fallback() { return {true, true, true}; }
+
+  // The points of the level's point-to-plane term.
+  [[nodiscard]] const ReferenceLevel& geometric_points(const DirectTracker::Impl& m,
+                                                       int level) const {
+    const auto l = static_cast<std::size_t>(level);
+    return plane_points ? m.plane[l] : m.ref[l];
+  }
 };
 
 struct AlignOutcome {
@@ -575,13 +755,14 @@ struct HealthLevel {
 // point-to-plane one where the level has enough points with a normal.
 class LevelTerms {
  public:
-  LevelTerms(DirectTracker::Impl& m, const DirectTrackerOptions& o, int level, bool geometric)
+  LevelTerms(DirectTracker::Impl& m, const DirectTrackerOptions& o, int level,
+             const AlignTerms& terms)
       : photometric_(
             m.ref[static_cast<std::size_t>(level)], m.pyramid.level(level),
             level_sampling(o, level == o.pyramid.finest_level), m.photometric_buffers,
             static_cast<float>(o.robust.tukey_c),
             {o.terms.gain_bias ? 8 : 6, o.robust.min_sigma, o.robust.sigma_freeze_change, 0.0}),
-        geometric_(geometric_term(m, o, level, geometric)) {
+        geometric_(geometric_term(m, o, level, terms)) {
     const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
     list_[0] = &photometric_;
     if (geometric_) {
@@ -589,7 +770,7 @@ class LevelTerms {
       size_ = 2;
     }
     m.photometric_buffers.pad(L.count);
-    m.geometric_buffers.pad(L.count);
+    m.geometric_buffers.pad(terms.geometric_points(m, level).count);
     const auto l = static_cast<std::size_t>(level);
     photometric_.set_median_hint(m.photometric_median_hint[l]);
     if (geometric_) geometric_->set_median_hint(m.geometric_median_hint[l]);
@@ -611,9 +792,9 @@ class LevelTerms {
   // Built in place (a prvalue: the term is neither copied nor moved).
   static std::optional<PointToPlaneTerm> geometric_term(DirectTracker::Impl& m,
                                                         const DirectTrackerOptions& o, int level,
-                                                        bool geometric) {
-    const ReferenceLevel& L = m.ref[static_cast<std::size_t>(level)];
-    if (!geometric || L.normal_count < o.health.min_points) return std::nullopt;
+                                                        const AlignTerms& terms) {
+    const ReferenceLevel& L = terms.geometric_points(m, level);
+    if (!terms.geometric || L.normal_count < o.health.min_points) return std::nullopt;
     // The geometric scale is not below the sensor's depth noise at the level's median depth:
     // on exact (rendered) or very clean depth the MAD of a misaligned pair counts the points
     // whose residual the motion leaves at zero (a wall sliding in its own plane), and 1/sigma^2
@@ -650,7 +831,7 @@ void finish_finest_level(const LevelStats& stats, const PointToPlaneTerm* geo, L
   res.depth_sigma = geo ? geo->sigma() : 0.0;
   res.depth_points = geo ? geo->valid() : 0;
   res.depth_inlier_ratio =
-      geo ? static_cast<double>(geo->inliers()) / std::max(1, L.normal_count) : 0.0;
+      geo ? static_cast<double>(geo->inliers()) / std::max(1, geo->points_with_normal()) : 0.0;
   res.points = L.count;
   res.overlap = static_cast<double>(stats.inside) / L.count;
   res.inlier_ratio = static_cast<double>(health.inliers) / health.points;
@@ -707,7 +888,8 @@ struct AlignRunner {
       return a;
     }
     m.ensure_depth_pyramid(o);
-    AlignOutcome b = align(m, o, T_cur_ref_guess, AlignTerms::joint());
+    TrackerAccess::ensure_plane_points(m, o);
+    AlignOutcome b = align(m, o, T_cur_ref_guess, AlignTerms::keyframe_fallback());
     b.result.iterations += a.result.iterations;
     if (!b.result.ok()) {
       a.result.iterations = b.result.iterations;
@@ -756,7 +938,7 @@ struct AlignRunner {
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = m.rs_frame_rectified;
     m.ensure_depth_pyramid(o);
-    TrackerAccess::build_reference(m, levels, cams);
+    TrackerAccess::build_reference(m, levels, cams, -1, false);
     m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
     // align() maps reference (current frame) points into the frame it samples (the previous).
@@ -792,7 +974,7 @@ struct AlignRunner {
         return out;
       }
       const SE3 T_level_start = est.T_cur_ref;
-      const LevelTerms level_terms(m, o, l, terms.geometric);
+      const LevelTerms level_terms(m, o, l, terms);
       LevelSolver solver(level_terms.list(), SolverRules::for_level(o, l, L), l, L.count,
                          m.abs_residual.data(), est, res);
       const LevelEnd end = solver.run();

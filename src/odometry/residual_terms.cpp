@@ -114,6 +114,14 @@ int PointToPlaneTerm::evaluate(const Estimate& e) {
                          b_.jac[3].data(), b_.jac[4].data(), b_.jac[5].data()};
   valid_ = kernels::warp_point_to_plane(points, depth, kernels::FloatPose::from(e.T_cur_ref),
                                         max_spread_, b_.residual.data(), b_.valid.data(), jac);
+  // Each residual in units of a point at the median depth (ReferenceLevel::depth_noise_scale).
+  if (!L_.depth_noise_scale.empty()) {
+    const float* s = L_.depth_noise_scale.data();
+    for (int i = 0; i < L_.count; ++i) {
+      b_.residual[static_cast<std::size_t>(i)] *= s[i];
+      for (float* col : jac) col[i] *= s[i];
+    }
+  }
   return valid_;
 }
 

@@ -162,6 +162,31 @@ template <>
 void accumulate_normal_equations_scalar<8>(const float* const* J, int count, const float* w,
                                            const float* r, Matrix8d& H, Vector8d& g);
 
+/// One row v of a depth level (metres) with its neighbours above and below, and the level's
+/// pinhole model: the input of surface_normal_row.
+struct NormalRow {
+  const float* up = nullptr;
+  const float* mid = nullptr;
+  const float* down = nullptr;
+  int width = 0;
+  int v = 0;
+  float fx = 1.0F, fy = 1.0F, cx = 0.0F, cy = 0.0F;
+  /// The neighbours' largest relative depth difference to the centre's.
+  float max_spread = 0.0F;
+};
+/// For u in [1, width - 1): the x and y components of the unit surface normal at pixel (u, v),
+/// facing the camera, from the cross product of the back-projected central differences (left /
+/// right, up / down), where the four neighbours are depths in (0, 1e3) within max_spread of the
+/// centre's (relative) and the surface is not grazing (the normal within ~78 deg of the viewing
+/// ray): ok[u] = 1. Elsewhere ok[u] = 0 and nx[u], ny[u] are unspecified; u = 0 and width - 1
+/// are not written. The centre's own depth is not range-checked. The candidates' normals of
+/// the geometric fallback's normal-space sample (direct_tracker.cpp, bin_normals).
+void surface_normal_row(const NormalRow& row, float* nx, float* ny, std::uint8_t* ok);
+/// The reference implementation (one pixel at a time); surface_normal_row gives its results to
+/// float rounding (targets with fused multiply-adds round differently), so a test at its
+/// threshold may go the other way.
+void surface_normal_row_scalar(const NormalRow& row, float* nx, float* ny, std::uint8_t* ok);
+
 /// The SIMD target the kernels run on in this process (e.g. "AVX3", "AVX2", "NEON").
 const char* simd_target();
 /// Every SIMD target the kernels are compiled for that this CPU runs, best first, as Highway

@@ -114,6 +114,11 @@ struct ReferenceLevel {
   std::vector<float> nx, ny, nz, n_dot_p;
   std::vector<std::uint8_t> has_normal;
   int normal_count = 0;
+  /// Geometric residual: per point, (median_depth / z)^2. Depth noise grows as z^2 (Kinect v1,
+  /// Khoshelham & Elberink 2012), so each point-to-plane residual and its Jacobian are multiplied
+  /// by it: the term's one robust scale is that of a point at the median depth. Empty (1) with
+  /// `terms.depth_noise_per_m` 0.
+  std::vector<float> depth_noise_scale;
   double median_depth = 0.0;
 };
 

@@ -97,7 +97,9 @@ struct TermsOptions {
   double min_depth_sigma_m = 5e-4;
   /// ... nor below the sensor's depth noise sigma_z = depth_noise_per_m * z^2 at the level's
   /// median depth z: Kinect v1's 1.425e-3 /m (Khoshelham & Elberink, "Accuracy and resolution
-  /// of Kinect depth data", Sensors 2012). 0 = no such floor.
+  /// of Kinect depth data", Sensors 2012). As the noise grows as z^2, each point-to-plane
+  /// residual is also scaled by (median z / z)^2 (ReferenceLevel::depth_noise_scale). 0 = no
+  /// such floor and no such scale.
   double depth_noise_per_m = 1.425e-3;
   /// A depth sample of the current frame is used only if its 2x2 neighbourhood spreads less
   /// than this fraction of its depth (no interpolation across occlusion boundaries); also the

@@ -131,6 +131,8 @@ class PointToPlaneTerm final : public ResidualTerm {
   [[nodiscard]] double cost() const override;
   double weigh() override;
   void accumulate(Matrix8d& H, Vector8d& g) const override;
+  /// The level's points with a normal: those the term can use.
+  [[nodiscard]] int points_with_normal() const { return L_.normal_count; }
 
  private:
   /// What the cost kernel counts for the points without a normal (the Tukey maximum each).
