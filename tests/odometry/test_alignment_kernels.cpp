@@ -229,6 +229,17 @@ cv::Mat plane_depth(const Eigen::Vector3f& n, float d, const NormalRow& cam, int
   return depth;
 }
 
+// The intrinsics and spread of the normal tests (a 160 x 120 camera); rows from row_of.
+NormalRow small_camera_row() {
+  NormalRow cam;
+  cam.fx = 130.0F;
+  cam.fy = 131.0F;
+  cam.cx = 79.5F;
+  cam.cy = 59.5F;
+  cam.max_spread = 0.06F;
+  return cam;
+}
+
 NormalRow row_of(const cv::Mat& depth, int v, NormalRow cam) {
   cam.up = depth.ptr<float>(v - 1);
   cam.mid = depth.ptr<float>(v);
@@ -239,12 +250,7 @@ NormalRow row_of(const cv::Mat& depth, int v, NormalRow cam) {
 }
 
 TEST(AlignmentKernels, SurfaceNormalsOfAPlaneAreItsNormal) {
-  NormalRow cam;
-  cam.fx = 130.0F;
-  cam.fy = 131.0F;
-  cam.cx = 79.5F;
-  cam.cy = 59.5F;
-  cam.max_spread = 0.06F;
+  const NormalRow cam = small_camera_row();
   // Unit normals facing the camera (n . P = d < 0 for the points in front of it).
   const Eigen::Vector3f n = Eigen::Vector3f(0.3F, -0.2F, -1.0F).normalized();
   const cv::Mat depth = plane_depth(n, -2.0F, cam, 160, 120);
@@ -266,12 +272,7 @@ TEST(AlignmentKernels, SurfaceNormalsOfAPlaneAreItsNormal) {
 }
 
 TEST(AlignmentKernels, SurfaceNormalsRefuseEdgesHolesAndGrazingSurfaces) {
-  NormalRow cam;
-  cam.fx = 130.0F;
-  cam.fy = 131.0F;
-  cam.cx = 79.5F;
-  cam.cy = 59.5F;
-  cam.max_spread = 0.06F;
+  const NormalRow cam = small_camera_row();
   cv::Mat depth(5, 40, CV_32FC1, cv::Scalar(2.0F));
   depth.at<float>(2, 10) = 0.0F;                                     // a hole: 9 and 11 refused
   depth.at<float>(1, 20) = std::numeric_limits<float>::quiet_NaN();  // above 20: refused
