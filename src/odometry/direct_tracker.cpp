@@ -291,18 +291,24 @@ void prepare_frame(DirectTracker::Impl& m, const DisparityFrame& f, const Direct
 }  // namespace
 
 struct TrackerAccess {
+  // What a reference is built for: a keyframe keeps a copy of its depth levels for the
+  // geometric fallback's own points; the current frame as the fallback's rotation reference
+  // does not (the keyframe's stay).
+  enum class ReferenceRole { kKeyframe, kFallbackRotation };
+
   // Reference building: gradients, selection and the precomputed IC Jacobians per level, from
   // `first_level` up (the finer ones already hold this frame's; by default none do), and, for a
-  // keyframe (`keyframe`) with the geometric fallback, the fallback's points on every level.
+  // keyframe with the geometric fallback, the depth its own points are sampled from.
   static void build_reference(DirectTracker::Impl& m, const DirectTrackerOptions& o,
                               const std::vector<PinholeCamera>& cams, int first_level = -1,
-                              bool keyframe = true) {
+                              ReferenceRole role = ReferenceRole::kKeyframe) {
     prepare_reference_maps(m, o);
     const int finest = o.pyramid.finest_level;
     for (int l = std::max(first_level, finest); l < o.pyramid.levels; ++l) {
       build_reference_level(m, o, cams[static_cast<std::size_t>(l)], l);
     }
-    if (keyframe && o.terms.geometric == GeometricTerm::kFallback && !m.disparity_input) {
+    if (role == ReferenceRole::kKeyframe && o.terms.geometric == GeometricTerm::kFallback &&
+        !m.disparity_input) {
       for (int l = finest; l < o.pyramid.levels; ++l) {
         m.depth_pyramid.level(l).copyTo(m.ref_depth[static_cast<std::size_t>(l)]);
       }
@@ -938,7 +944,8 @@ struct AlignRunner {
     std::swap(m.ref, m.current_ref);
     m.rs_ref_rectified = m.rs_frame_rectified;
     m.ensure_depth_pyramid(o);
-    TrackerAccess::build_reference(m, levels, cams, -1, false);
+    TrackerAccess::build_reference(m, levels, cams, -1,
+                                   TrackerAccess::ReferenceRole::kFallbackRotation);
     m.swap_current_and_previous();
     m.ensure_depth_pyramid(o);
     // align() maps reference (current frame) points into the frame it samples (the previous).
