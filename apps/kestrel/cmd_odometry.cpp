@@ -442,6 +442,31 @@ void run_stereo_odometry(const OdometryArgs& args) {
   print_summary(tally.ms, tally.processed, tally.failures);
 }
 
+// A camera named on the command line that is not the folder's own camera.yaml: said before the
+// run. A rendered folder's file has no lens distortion where the preset of its camera family
+// has; tracked with the preset, every image is warped by a distortion it never had.
+void warn_if_not_the_folders_camera(const OdometryArgs& args, const PinholeCamera& camera) {
+  const std::filesystem::path own = args.dataset / "camera.yaml";
+  std::error_code ec;
+  if (args.camera.empty() || !std::filesystem::is_regular_file(own, ec) ||
+      std::filesystem::equivalent(own, args.camera, ec)) {
+    return;
+  }
+  std::string folder;
+  try {
+    folder = io::load_camera(own.string()).describe();
+  } catch (const std::exception& e) {
+    std::cerr << "kestrel odometry: warning: the folder's " << own.string()
+              << " could not be read (" << e.what() << "); --camera " << args.camera
+              << " is used\n";
+    return;
+  }
+  if (folder == camera.describe()) return;
+  std::cerr << "kestrel odometry: warning: --camera " << args.camera << " (" << camera.describe()
+            << ") is not the folder's " << own.string() << " (" << folder
+            << "), which describes how these images were made; leave out --camera to use it\n";
+}
+
 void run_odometry(const OdometryArgs& args) {
   if (args.stereo) {
     run_stereo_odometry(args);
@@ -463,6 +488,7 @@ void run_odometry(const OdometryArgs& args) {
   // The camera description: the pinhole model, the depth scale and the rolling-shutter readout.
   const io::CameraFile described = io::load_camera_description(camera_name);
   const PinholeCamera& camera = described.camera;
+  warn_if_not_the_folders_camera(args, camera);
   const odometry::DirectTrackerOptions options =
       args.config.empty() ? odometry::DirectTrackerOptions{}
                           : odometry::DirectTrackerOptions::load(args.config);

@@ -44,10 +44,11 @@ class CmdOdometry : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  RunResult odometry(const std::string& extra) const {
-    return kestrel::test::run_kestrel(dir_,
-                                      "odometry " + quoted((dir_ / "seq").string()) + " --camera " +
-                                          quoted((dir_ / "small.yaml").string()) + " " + extra);
+  RunResult odometry(const std::string& extra) const { return odometry_with("small.yaml", extra); }
+  RunResult odometry_with(const std::string& camera, const std::string& extra) const {
+    return kestrel::test::run_kestrel(dir_, "odometry " + quoted((dir_ / "seq").string()) +
+                                                " --camera " + quoted((dir_ / camera).string()) +
+                                                " " + extra);
   }
   std::string path(const std::string& name) const { return quoted((dir_ / name).string()); }
 
@@ -115,6 +116,18 @@ TEST_F(CmdOdometry, TakesTheFoldersOwnCameraFileByDefault) {
     EXPECT_EQ(a[i].t_ns, b[i].t_ns);
     EXPECT_LT((a[i].T_world_body.inverse() * b[i].T_world_body).log().norm(), 1e-12) << i;
   }
+
+  // A named camera that is not the folder's own: the run goes on, with a warning naming both.
+  kestrel::io::save_camera_yaml(
+      dir_ / "distorted.yaml",
+      kestrel::PinholeCamera({130.0, 130.0, 79.5, 59.5, 160, 120}, {0.1, 0.0, 0.0, 0.0, 0.0}),
+      "test");
+  const RunResult other = odometry_with("distorted.yaml", "--out " + path("other.txt"));
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  EXPECT_NE(other.err.find("warning: --camera"), std::string::npos) << other.err;
+  EXPECT_NE(other.err.find((dir_ / "seq" / "camera.yaml").string()), std::string::npos)
+      << other.err;
+  EXPECT_EQ(named.err.find("warning: --camera"), std::string::npos) << named.err;
 
   fs::remove(dir_ / "seq" / "camera.yaml");
   const RunResult none =
