@@ -98,6 +98,16 @@ PointToPlaneTerm::PointToPlaneTerm(const ReferenceLevel& L, const cv::Mat& depth
       depth_(depth),
       max_spread_(max_relative_spread) {}
 
+namespace {
+
+// v[i] *= s[i] over one array at a time: the arrays do not alias, so the loop vectorises (one
+// loop over all seven arrays per point did not).
+void scale_rows(const float* __restrict s, int n, float* __restrict v) {
+  for (int i = 0; i < n; ++i) v[i] *= s[i];
+}
+
+}  // namespace
+
 int PointToPlaneTerm::evaluate(const Estimate& e) {
   const kernels::PlanePointsView points{L_.x.data(),       L_.y.data(),          L_.z.data(),
                                         L_.nx.data(),      L_.ny.data(),         L_.nz.data(),
@@ -116,11 +126,8 @@ int PointToPlaneTerm::evaluate(const Estimate& e) {
                                         max_spread_, b_.residual.data(), b_.valid.data(), jac);
   // Each residual in units of a point at the median depth (ReferenceLevel::depth_noise_scale).
   if (!L_.depth_noise_scale.empty()) {
-    const float* s = L_.depth_noise_scale.data();
-    for (int i = 0; i < L_.count; ++i) {
-      b_.residual[static_cast<std::size_t>(i)] *= s[i];
-      for (float* col : jac) col[i] *= s[i];
-    }
+    scale_rows(L_.depth_noise_scale.data(), L_.count, b_.residual.data());
+    for (float* col : jac) scale_rows(L_.depth_noise_scale.data(), L_.count, col);
   }
   return valid_;
 }
