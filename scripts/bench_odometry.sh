@@ -2,7 +2,7 @@
 # The odometry peer comparison over every sequence we have: `kestrel odometry` (defaults), OpenCV
 # contrib RgbdOdometry and RgbdICPOdometry, and Open3D's RGB-D odometry, each pinned to one core
 # (taskset) and single-threaded, every trajectory evaluated by `kestrel evaluate`. Sequences:
-# every TUM folder in ../shared/data/tum (camera fr1/fr2/fr3 from the folder name) and rendered
+# every TUM folder in ../shared/data/tum (camera from the folder: camera_for_folder) and rendered
 # ones (`kestrel render`, Kinect-like depth noise). Prints a table per sequence and the totals.
 #
 #   scripts/bench_odometry.sh [--tum-only] [--repeat N] [BUILD_DIR] [CORE]
@@ -57,17 +57,10 @@ else
   echo "note: $open3d_peer not built (needs libopen3d-dev): Open3D row left out" >&2
 fi
 
-# camera_of FOLDER: the folder's camera.yaml (a rendered sequence's distortion-free model), else
-# fr1/fr2/fr3 from a TUM folder name. (Until 2026-12-06 the rendered sequences were run with the
-# fr1 preset, whose lens distortion they do not have: docs/odometry.md, "The rendered sequences'
-# camera".)
-camera_of() {
-  if [[ -f "$1/camera.yaml" ]]; then echo "$1/camera.yaml"; return; fi
-  case "$1" in
-    *freiburg1*) echo fr1 ;; *freiburg2*) echo fr2 ;; *freiburg3*) echo fr3 ;;
-    *) echo "bench_odometry.sh: $1: no camera.yaml and no freiburgN in the name" >&2; exit 1 ;;
-  esac
-}
+# The camera: every method takes the folder's own (its camera.yaml, as `kestrel render` writes,
+# else the freiburgN preset its name says: io::camera_for_folder), so all see the same model.
+# (Until 2026-12-06 the rendered sequences were run with the fr1 preset, whose lens distortion
+# they do not have: docs/odometry.md, "The rendered sequences' camera".)
 
 # evaluate GT EST -> "ATE RPE_m_s RPE_deg_s" (the key=value line of `kestrel evaluate`)
 evaluate() {
@@ -78,16 +71,15 @@ evaluate() {
 
 # run_method METHOD SEQUENCE_DIR OUT -> "frames failures mean_ms"
 run_method() {
-  local method=$1 seq=$2 out=$3 cam summary
-  cam=$(camera_of "$seq")
+  local method=$1 seq=$2 out=$3 summary
   case "$method" in
     kestrel*)
-      taskset -c "$core" "$kestrel" odometry "$seq" --camera "$cam" --out "$out" \
+      taskset -c "$core" "$kestrel" odometry "$seq" --out "$out" \
         > "$tmp/run.out" 2> "$tmp/run.err" || { cat "$tmp/run.err" >&2; exit 1; }
       summary=$(grep -E '^SUMMARY' "$tmp/run.err" | tail -n 1) ;;
-    "OpenCV RgbdOdometry") summary=$(taskset -c "$core" "$opencv_peer" rgbd "$seq" "$out" "$cam") ;;
-    "OpenCV RgbdICPOdometry") summary=$(taskset -c "$core" "$opencv_peer" icp "$seq" "$out" "$cam") ;;
-    "Open3D RGB-D odometry") summary=$(taskset -c "$core" "$open3d_peer" "$seq" "$out" "$cam") ;;
+    "OpenCV RgbdOdometry") summary=$(taskset -c "$core" "$opencv_peer" rgbd "$seq" "$out") ;;
+    "OpenCV RgbdICPOdometry") summary=$(taskset -c "$core" "$opencv_peer" icp "$seq" "$out") ;;
+    "Open3D RGB-D odometry") summary=$(taskset -c "$core" "$open3d_peer" "$seq" "$out") ;;
   esac
   sed -E 's/.*frames=([0-9]+) failures=([0-9]+) mean_ms=([0-9.]+).*/\1 \2 \3/' <<< "$summary"
 }
@@ -121,7 +113,9 @@ row_line='|--------------------------------|--------|----------|----------|-----
 
 for seq in "${sequences[@]}"; do
   echo
-  echo "sequence: $(basename "$seq") (camera $(basename "$(camera_of "$seq")"), core $core, single thread)"
+  camera="its freiburgN name"
+  [[ -f "$seq/camera.yaml" ]] && camera="its camera.yaml"
+  echo "sequence: $(basename "$seq") (camera from $camera, core $core, single thread)"
   # shellcheck disable=SC2059
   printf "$row_format" method frames failures ms/frame "ATE m" "RPE m/s" "RPE deg/s"
   echo "$row_line"

@@ -201,15 +201,19 @@ PinholeCamera load_camera(const std::string& preset_or_path) {
   return load_camera_description(preset_or_path).camera;
 }
 
-std::string camera_for_folder(const fs::path& folder) {
-  const fs::path own = folder / "camera.yaml";
-  std::error_code ec;
-  if (fs::is_regular_file(own, ec)) return own.string();
-  const std::string name = fs::absolute(folder).lexically_normal().string();
+std::string camera_preset_in_path(const fs::path& path) {
+  const std::string name = fs::absolute(path).lexically_normal().string();
   if (name.find("freiburg1") != std::string::npos) return "fr1";
   if (name.find("freiburg2") != std::string::npos) return "fr2";
   if (name.find("freiburg3") != std::string::npos) return "fr3";
   return {};
+}
+
+std::string camera_for_folder(const fs::path& folder) {
+  const fs::path own = folder / "camera.yaml";
+  std::error_code ec;
+  if (fs::is_regular_file(own, ec)) return own.string();
+  return camera_preset_in_path(folder);
 }
 
 RectifiedStereo load_rectified_stereo(const fs::path& path) {

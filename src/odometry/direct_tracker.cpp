@@ -364,12 +364,7 @@ struct TrackerAccess {
     // Depth (m) or, with disparity input, disparity (full-resolution pixels).
     const cv::Mat& dep =
         disp ? m.disparity_levels[static_cast<std::size_t>(l)] : m.depth_pyramid.level(l);
-    L.fx = static_cast<float>(cam.fx());
-    L.fy = static_cast<float>(cam.fy());
-    L.cx = static_cast<float>(cam.cx());
-    L.cy = static_cast<float>(cam.cy());
-    L.width = img.cols;
-    L.height = img.rows;
+    set_level_camera(cam, img, L);
     const auto level = static_cast<std::size_t>(l);
     image::central_gradients(img, m.gx[level], m.gy[level]);
     select_points(m, o, img, dep, m.gx[level], m.gy[level]);
@@ -439,6 +434,16 @@ struct TrackerAccess {
                      m.selected, m.selection_scratch);
   }
 
+  // The level's pinhole model and size (the image's or depth level's, equal in size).
+  static void set_level_camera(const PinholeCamera& cam, const cv::Mat& level, ReferenceLevel& L) {
+    L.fx = static_cast<float>(cam.fx());
+    L.fy = static_cast<float>(cam.fy());
+    L.cx = static_cast<float>(cam.cx());
+    L.cy = static_cast<float>(cam.cy());
+    L.width = level.cols;
+    L.height = level.rows;
+  }
+
   // n points, padded to whole SIMD lanes with points that weigh nothing.
   static void reset_points(ReferenceLevel& L, int n, std::size_t padded) {
     L.count = n;
@@ -496,8 +501,7 @@ struct TrackerAccess {
       J(6) = img_data[idx];
       J(7) = 1.0;
     } else {
-      pd.P =
-          Eigen::Vector3d((u - cam.cx()) / cam.fx() * pd.z, (v - cam.cy()) / cam.fy() * pd.z, pd.z);
+      pd.P = back_project(cam, u, v, pd.z);
     }
     if (!m.disparity_input) {
       J = photometric_jacobian(pd.P, gx_data[idx], gy_data[idx], cam.fx(), cam.fy(), img_data[idx]);
@@ -562,12 +566,7 @@ struct TrackerAccess {
     const ReferenceLevel& L = m.ref[static_cast<std::size_t>(l)];
     ReferenceLevel& G = m.plane[static_cast<std::size_t>(l)];
     const cv::Mat& dep = m.ref_depth[static_cast<std::size_t>(l)];
-    G.fx = L.fx;
-    G.fy = L.fy;
-    G.cx = L.cx;
-    G.cy = L.cy;
-    G.width = L.width;
-    G.height = L.height;
+    set_level_camera(cam, dep, G);
     G.median_depth = L.median_depth;
     const auto spread = static_cast<float>(o.terms.depth_max_relative_spread);
     bin_normals(m, dep, cam, spread, o);

@@ -20,12 +20,7 @@ std::vector<std::pair<std::size_t, std::size_t>> associate_stamps(
 }
 
 std::string camera_preset_for_name(const std::string& path) {
-  const std::string name =
-      std::filesystem::absolute(std::filesystem::path(path)).lexically_normal().string();
-  if (name.find("freiburg1") != std::string::npos) return "fr1";
-  if (name.find("freiburg2") != std::string::npos) return "fr2";
-  if (name.find("freiburg3") != std::string::npos) return "fr3";
-  return {};
+  return io::camera_preset_in_path(path);
 }
 
 std::string camera_for_tum_folder(const std::string& folder) {

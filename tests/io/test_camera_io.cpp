@@ -35,6 +35,7 @@ TEST(CameraForFolder, OwnFileThenTheNamesPreset) {
   EXPECT_EQ(camera_for_folder(fr1), "fr1");
   EXPECT_EQ(camera_for_folder(root / "rgbd_dataset_freiburg3_y"), "fr3");
   EXPECT_EQ(camera_for_folder(plain), "");
+  EXPECT_EQ(camera_preset_in_path(root / "rgbd_dataset_freiburg2_desk.bag"), "fr2");
   save_camera_yaml(plain / "camera.yaml", PinholeCamera({100.0, 100.0, 49.5, 39.5, 100, 80}),
                    "test");
   save_camera_yaml(fr1 / "camera.yaml", PinholeCamera({100.0, 100.0, 49.5, 39.5, 100, 80}), "test");

@@ -229,16 +229,19 @@ cv::Mat plane_depth(const Eigen::Vector3f& n, float d, const NormalRow& cam, int
   return depth;
 }
 
-// The intrinsics and spread of the normal tests (a 160 x 120 camera); rows from row_of.
-NormalRow small_camera_row() {
+// A normal row's intrinsics, with the tests' spread (0.06); the rows from row_of.
+NormalRow camera_row(float fx, float fy, float cx, float cy) {
   NormalRow cam;
-  cam.fx = 130.0F;
-  cam.fy = 131.0F;
-  cam.cx = 79.5F;
-  cam.cy = 59.5F;
+  cam.fx = fx;
+  cam.fy = fy;
+  cam.cx = cx;
+  cam.cy = cy;
   cam.max_spread = 0.06F;
   return cam;
 }
+
+// The 160 x 120 camera of the plane and edge tests.
+NormalRow small_camera_row() { return camera_row(130.0F, 131.0F, 79.5F, 59.5F); }
 
 NormalRow row_of(const cv::Mat& depth, int v, NormalRow cam) {
   cam.up = depth.ptr<float>(v - 1);
@@ -299,12 +302,7 @@ TEST(AlignmentKernels, SurfaceNormalsRefuseEdgesHolesAndGrazingSurfaces) {
 }
 
 TEST(AlignmentKernels, SurfaceNormalsMatchTheScalarReference) {
-  NormalRow cam;
-  cam.fx = 517.3F;
-  cam.fy = 516.5F;
-  cam.cx = 318.6F;
-  cam.cy = 255.3F;
-  cam.max_spread = 0.06F;
+  const NormalRow cam = camera_row(517.3F, 516.5F, 318.6F, 255.3F);  // fr1's intrinsics
   std::mt19937 rng(9);
   cv::Mat depth(48, 203, CV_32FC1);
   cv::randu(depth, 1.0F, 1.04F);  // rough surfaces near the spread's threshold

@@ -48,6 +48,9 @@ PinholeCamera camera_from_yaml(const YAML::Node& map, const std::filesystem::pat
 /// A preset name or a file path: the pinhole model alone (load_camera_description's camera).
 PinholeCamera load_camera(const std::string& preset_or_path);
 
+/// "fr1", "fr2" or "fr3" where a path names freiburg1/2/3 (TUM's folder and bag names), else "".
+std::string camera_preset_in_path(const std::filesystem::path& path);
+
 /// The camera a TUM-layout folder was recorded with, where the user named none: the folder's own
 /// `camera.yaml` (what `kestrel render` writes, with the distortion-free model it rendered), else
 /// the TUM preset its path names (freiburg1/2/3 -> fr1/fr2/fr3), else "" (the caller asks for one).
