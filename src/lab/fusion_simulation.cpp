@@ -3,6 +3,7 @@
 
 #include <Eigen/Cholesky>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 
@@ -289,7 +290,24 @@ TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::Fusion
   std::size_t i = 0;
   double last_outside_s = 0.0;
   bool ever_inside = false;
+  // The oracle's information about t_d (see TimeOffsetRun): h(d) = T_wc(t_ref + d)^-1 T_wc(t + d)
+  // on the frames' stamps, differentiated on the left (the odometry's noise is exp(-xi) T) by a
+  // central difference at the true offset.
+  const Matrix6d vo_info = simulated_vo_covariance(sim).inverse();
+  auto world_cam = [&](TimeNs t_ns, double d) {
+    return flight.at(ns_to_s(t_ns) + d).T_world_body * sim.T_body_cam;
+  };
+  constexpr double kStep = 1e-4;  // s: the flight's fastest term (0.4 Hz) is smooth at this scale
+  double information = 1.0 / (fusion.init_sigma_time_offset_s * fusion.init_sigma_time_offset_s);
   for (const auto& m : run.odometry) {
+    {
+      const SE3 h_plus =
+          world_cam(m.t_ref_ns, offset_s + kStep).inverse() * world_cam(m.t_ns, offset_s + kStep);
+      const SE3 h_minus =
+          world_cam(m.t_ref_ns, offset_s - kStep).inverse() * world_cam(m.t_ns, offset_s - kStep);
+      const Vector6d J = (h_plus * h_minus.inverse()).log() / (2.0 * kStep);
+      information += J.dot(vo_info * J);
+    }
     while (i < run.imu.size() && run.imu[i].t_ns <= m.t_ns) engine.add_imu(run.imu[i++]);
     engine.add_relative_pose(m);
     (void)engine.flush(false);
@@ -305,6 +323,9 @@ TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::Fusion
     }
     res.t_s.push_back(t);
     res.estimate_s.push_back(est.time_offset_s);
+    res.sigma_s.push_back(
+        std::sqrt(std::max(0.0, engine.filter().covariance()(fusion::idx::kTd, fusion::idx::kTd))));
+    res.oracle_sigma_s.push_back(1.0 / std::sqrt(information));
     if (std::abs(est.time_offset_s - offset_s) >= tolerance_s) {
       last_outside_s = t;
       ever_inside = false;
@@ -320,6 +341,12 @@ TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::Fusion
   res.fused_rmse_m = n ? std::sqrt(se / static_cast<double>(n)) : 0.0;
   res.fused_rmse_after_m = n_after ? std::sqrt(se_after / static_cast<double>(n_after)) : 0.0;
   return res;
+}
+
+double value_at(const std::vector<double>& t_s, const std::vector<double>& values, double t) {
+  double v = std::numeric_limits<double>::quiet_NaN();
+  for (std::size_t k = 0; k < t_s.size() && k < values.size() && t_s[k] <= t; ++k) v = values[k];
+  return v;
 }
 
 }  // namespace kestrel::lab

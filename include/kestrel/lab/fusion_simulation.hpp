@@ -130,8 +130,16 @@ struct TimeOffsetRun {
   double first_within_s = -1.0;
   double fused_rmse_m = 0.0;        ///< position, at every odometry stamp, whole flight
   double fused_rmse_after_m = 0.0;  ///< the same from `compare_after_s` on
-  std::vector<double> t_s, estimate_s;
+  /// At every odometry stamp: the estimate, the filter's 1-sigma, and the oracle bound: the
+  /// 1-sigma that the prior and the measurements so far allow t_d when every other quantity (pose,
+  /// velocity, rates, biases) is known exactly, 1 / sqrt(1/sigma0^2 + sum_k J_k^T R^-1 J_k) with
+  /// J_k = d h_k / d t_d from the true flight. No estimator of t_d from these measurements can do
+  /// better on average (Cramer-Rao), so it tells the information apart from the filter.
+  std::vector<double> t_s, estimate_s, sigma_s, oracle_sigma_s;
 };
+
+/// The value of `values` at the last stamp of `t_s` at or before `t`; NaN if there is none.
+double value_at(const std::vector<double>& t_s, const std::vector<double>& values, double t);
 TimeOffsetRun time_offset_run(const SimulationOptions& sim, const fusion::FusionOptions& fusion,
                               double offset_s, std::uint64_t seed, double tolerance_s = 1e-3,
                               double compare_after_s = 10.0);
