@@ -79,6 +79,29 @@ TEST(TimeOffset, NotEstimatedItStaysFixed) {
   EXPECT_EQ(ekf.covariance()(idx::kTd, idx::kTd), 0.0);
 }
 
+// The initial clone is taken before any IMU reading: its rate comes from the first reading
+// (bias removed), not from the initial state's zero, and a later clone keeps its own rate.
+// With a zero rate the t_d column of every measurement against the first keyframe read the full
+// rate, and the filter claimed up to 2.5x the information the measurements carry.
+TEST(TimeOffset, TheInitialClonesRateIsTheFirstReadings) {
+  NominalState x;
+  x.gyro_bias_rad_s = Vector3d(0.01, 0.0, -0.02);
+  StochasticCloningEkf ekf;
+  ekf.initialize(x, Matrix15d::Identity() * 1e-4, 0.02);
+  EXPECT_EQ(ekf.state().omega_clone_body, Vector3d::Zero());
+  const Vector3d gyro(0.3, -0.2, 0.5);
+  ekf.propagate({gyro, Vector3d(0, 0, 9.81)}, 0.005);
+  EXPECT_TRUE(ekf.state().omega_clone_body.isApprox(gyro - x.gyro_bias_rad_s));
+  ekf.propagate({Vector3d(-0.4, 0.1, 0.0), Vector3d(0, 0, 9.81)}, 0.005);
+  EXPECT_TRUE(ekf.state().omega_clone_body.isApprox(gyro - x.gyro_bias_rad_s));  // unchanged
+  Matrix6d R = Matrix6d::Identity() * 1e-4;
+  (void)ekf.update(StochasticCloningEkf::predict_relative_pose(ekf.state()), R, 0.0);
+  ekf.clone();  // a new keyframe: at the current rate
+  EXPECT_TRUE(ekf.state().omega_clone_body.isApprox(ekf.state().omega_body));
+  ekf.propagate({Vector3d(0.7, 0.7, 0.7), Vector3d(0, 0, 9.81)}, 0.005);
+  EXPECT_TRUE(ekf.state().omega_clone_body.isApprox(Vector3d(-0.4, 0.1, 0.0) - x.gyro_bias_rad_s));
+}
+
 // Bad input with the offset state: a gap of seconds leaves t_d and its variance as they were
 // (a constant; nothing to grow), and a non-finite measurement is refused, never propagated
 // into t_d.
@@ -101,25 +124,72 @@ TEST(TimeOffset, GapAndNonFiniteMeasurementLeaveItFinite) {
   EXPECT_THROW(ekf.initialize(x, Matrix15d::Identity(), std::nan("")), std::invalid_argument);
 }
 
-// Offsets of -20, 0 and +15 ms on a simulated flight (the issue's), keyframe odometry with
-// 1 cm / 0.5 deg: t_d stays within 1 ms of the truth from 13.5-16.0 s on (measured on this
-// flight; the 10 s is MISSED: the relative poses carry t_d only through the change of
-// velocity and rate between the two frames, and the filter's own 1-sigma is still 0.9 ms at
-// 30 s, docs/fusion.md). REGRESSION GUARD at 20 s, and the estimate within 3 sigma.
-TEST(TimeOffset, RecoveredOnASimulatedFlight) {
+// Offsets of -20, 0 and +15 ms (the issue's) on flights 1-5, keyframe odometry with 1 cm /
+// 0.5 deg: at 30 s every estimate is within 3 sigma of the truth, the 1-sigma below 1.5 ms, and
+// the filter's 1-sigma within 10 % of the oracle bound (measured 1-5 %): it takes nearly all
+// the information the measurements carry. How soon it is within 1 ms is not asserted: the
+// oracle bound itself is 1.5-2.4 ms at 10 s on these flights (the 10 s is MISSED for
+// lack of information, docs/fusion.md).
+TEST(TimeOffset, RecoveredOnSimulatedFlights) {
   lab::SimulationOptions sim;
   sim.duration_s = 30.0;
   sim.vo_keyframes = true;  // as the odometry reports them by default
   const FusionOptions options;
-  for (const double ms : {-20.0, 0.0, 15.0}) {
-    const lab::TimeOffsetRun r = lab::time_offset_run(sim, options, 1e-3 * ms, 1);
-    std::cout << ms << " ms: t_d " << 1e3 * r.final_estimate_s << " +- " << 1e3 * r.final_sigma_s
-              << " ms, within 1 ms after " << r.converged_after_s << " s\n";
-    EXPECT_GE(r.converged_after_s, 0.0) << ms << " ms: not within 1 ms at the end";
-    EXPECT_LE(r.converged_after_s, 20.0) << ms << " ms";
-    EXPECT_NEAR(r.final_estimate_s, 1e-3 * ms, 3.0 * r.final_sigma_s) << ms << " ms";
-    EXPECT_LT(r.final_sigma_s, 1.5e-3) << ms << " ms";  // from the 20 ms prior
+  double sum_sq_normalised = 0.0;
+  int runs = 0;
+  for (const std::uint64_t flight : {1U, 2U, 3U, 4U, 5U}) {
+    for (const double ms : {-20.0, 0.0, 15.0}) {
+      const lab::TimeOffsetRun r = lab::time_offset_run(sim, options, 1e-3 * ms, flight);
+      const double error = r.final_estimate_s - 1e-3 * ms;
+      const double oracle = r.oracle_sigma_s.back();
+      std::cout << "flight " << flight << ", " << ms << " ms: t_d " << 1e3 * r.final_estimate_s
+                << " +- " << 1e3 * r.final_sigma_s << " ms (oracle " << 1e3 * oracle << ")\n";
+      EXPECT_LT(std::abs(error), 3.0 * r.final_sigma_s) << flight << ", " << ms << " ms";
+      EXPECT_LT(r.final_sigma_s, 1.5e-3) << flight << ", " << ms << " ms";  // from 20 ms
+      EXPECT_LT(r.final_sigma_s, 1.1 * oracle) << flight << ", " << ms << " ms";
+      sum_sq_normalised += error * error / (r.final_sigma_s * r.final_sigma_s);
+      ++runs;
+    }
   }
+  // Consistent: the three offsets of a flight share its noise, so about 5 independent draws;
+  // 2.57 is chi2(5)'s 97.5 % quantile / 5 (measured 1.03).
+  const double mean_sq = sum_sq_normalised / runs;
+  std::cout << "mean (error / sigma)^2 at 30 s: " << mean_sq << "\n";
+  EXPECT_LT(mean_sq, 2.57);
+}
+
+// The oracle bound (every quantity but t_d known) is the best any estimator can do with these
+// measurements: it starts at the prior, only shrinks, and the filter, which must also estimate
+// the pose, velocity and biases, is not surer than it (a filter far below it would be
+// over-confident about t_d). The EKF's Jacobians are taken at its estimates, not at the truth,
+// so its 1-sigma could dip a little under the bound; the lowest ratio on these runs is 1.0005
+// (0.40 while the initial clone took a zero rate, before the first IMU reading gave it).
+TEST(TimeOffset, TheFilterIsNoSurerThanTheOracleBound) {
+  lab::SimulationOptions sim;
+  sim.duration_s = 15.0;
+  sim.vo_keyframes = true;
+  const FusionOptions options;
+  double lowest_ratio = 1e9;
+  for (const std::uint64_t flight : {1U, 2U, 3U}) {
+    for (const double ms : {-20.0, 0.0, 15.0}) {
+      const lab::TimeOffsetRun r = lab::time_offset_run(sim, options, 1e-3 * ms, flight);
+      ASSERT_EQ(r.sigma_s.size(), r.t_s.size());
+      ASSERT_EQ(r.oracle_sigma_s.size(), r.t_s.size());
+      ASSERT_GT(r.t_s.size(), 100U);
+      EXPECT_LT(r.oracle_sigma_s.front(), options.init_sigma_time_offset_s);
+      for (std::size_t k = 0; k < r.t_s.size(); ++k) {
+        if (k > 0) {
+          EXPECT_LE(r.oracle_sigma_s[k], r.oracle_sigma_s[k - 1]) << "at " << r.t_s[k];
+        }
+        lowest_ratio = std::min(lowest_ratio, r.sigma_s[k] / r.oracle_sigma_s[k]);
+        EXPECT_GE(r.sigma_s[k], 0.98 * r.oracle_sigma_s[k])
+            << "flight " << flight << ", " << ms << " ms, at " << r.t_s[k] << " s";
+      }
+      // Not vacuous: the measurements carry t_d to a few ms within seconds.
+      EXPECT_LT(lab::value_at(r.t_s, r.oracle_sigma_s, 10.0), 5e-3);
+    }
+  }
+  std::cout << "lowest filter / oracle 1-sigma: " << lowest_ratio << "\n";
 }
 
 // Where the odometry is precise enough for 15 ms to matter (2 mm / 0.1 deg per keyframe

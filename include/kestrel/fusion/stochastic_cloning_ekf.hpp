@@ -205,6 +205,9 @@ class StochasticCloningEkf {
   bool first_estimates_ = true;
   /// The estimate before the last update, until the next propagation step uses it.
   std::optional<NominalState> before_update_;
+  /// Set by initialize(): no IMU reading has given the body rate yet, so the initial clone's
+  /// rate (omega_clone_body) is not known; the first propagation step sets it.
+  bool clone_rate_unmeasured_ = false;
   /// The clone's pose as first estimated (the Jacobians' linearisation point).
   Eigen::Vector3d p_clone_first_ = Eigen::Vector3d::Zero();
   Eigen::Quaterniond q_clone_first_ = Eigen::Quaterniond::Identity();
