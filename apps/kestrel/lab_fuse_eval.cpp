@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -12,7 +14,9 @@
 #include "interrupt.hpp"
 #include "kestrel/core/error.hpp"
 #include "kestrel/core/units.hpp"
+#include "kestrel/eval/plot.hpp"
 #include "kestrel/fusion/fusion_engine.hpp"
+#include "kestrel/io/output_guard.hpp"
 #include "kestrel/lab/fusion_experiments.hpp"
 #include "kestrel/lab/fusion_simulation.hpp"
 #include "option_checks.hpp"
@@ -44,6 +48,8 @@ struct FuseEvalArgs {
   int offset_flights = 5;
   double sim_vo_sigma_m = 0.01;  // the simulated odometry's noise per relative pose and axis
   double sim_vo_sigma_deg = 0.5;
+  fs::path plot_dir;  // time_offset.png and time_offset.csv of the time-offset runs
+  bool force = false;
   double imu_walk_scale = 1.0;
   double gap_start_s = 15.0;
   bool no_first_estimates = false;
@@ -56,6 +62,59 @@ struct FuseEvalArgs {
 
 // P(|e| < 1 ms) for a zero-mean Gaussian error of the given 1-sigma.
 double within_1ms(double sigma_s) { return std::erf(1e-3 / (std::sqrt(2.0) * sigma_s)); }
+
+// The t_d runs: time_offset.csv (every run, every stamp) and time_offset.png, one panel per
+// offset for the first flight, the estimate's error with the filter's +-1 sigma, the
+// oracle bound's +-1 sigma and the +-1 ms target, so that a reader sees convergence against
+// information.
+void write_time_offset_plots(const fs::path& dir, const std::vector<lab::TimeOffsetRun>& runs,
+                             const std::vector<int>& flights, const std::string& setting) {
+  const fs::path csv_path = dir / "time_offset.csv";
+  std::ofstream csv(csv_path);
+  csv << io::provenance_line("lab fuse-eval") << "\n"
+      << "offset_ms,flight,t_s,estimate_ms,sigma_ms,oracle_sigma_ms\n";
+  csv.precision(9);
+  std::vector<eval::Plot> panels;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const lab::TimeOffsetRun& r = runs[k];
+    const double offset_ms = 1e3 * r.true_offset_s;
+    for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+      csv << offset_ms << ',' << flights[k] << ',' << r.t_s[i] << ',' << 1e3 * r.estimate_s[i]
+          << ',' << 1e3 * r.sigma_s[i] << ',' << 1e3 * r.oracle_sigma_s[i] << '\n';
+    }
+    if (flights[k] != flights.front()) continue;  // one flight per panel: the first
+    std::vector<double> err, up, down, o_up, o_down;
+    for (std::size_t i = 0; i < r.t_s.size(); ++i) {
+      err.push_back(1e3 * (r.estimate_s[i] - r.true_offset_s));
+      up.push_back(1e3 * r.sigma_s[i]);
+      down.push_back(-1e3 * r.sigma_s[i]);
+      o_up.push_back(1e3 * r.oracle_sigma_s[i]);
+      o_down.push_back(-1e3 * r.oracle_sigma_s[i]);
+    }
+    std::ostringstream title;
+    title << "t_d " << offset_ms << " ms, flight " << flights[k] << " (" << setting << ")";
+    eval::Plot p;
+    p.title = title.str();
+    p.x_label = "time [s]";
+    p.y_label = "t_d error [ms]";
+    p.height_px = 300;
+    p.y_range = eval::AxisRange{-6.0, 6.0};
+    const std::vector<double> ends{r.t_s.empty() ? 0.0 : r.t_s.front(),
+                                   r.t_s.empty() ? 1.0 : r.t_s.back()};
+    p.add("estimate - truth", r.t_s, err).thickness_px = 2;
+    p.add("filter +-1 sigma", r.t_s, up).colour = eval::palette_colour(1);
+    p.add("", r.t_s, down).colour = eval::palette_colour(1);
+    p.add("oracle bound +-1 sigma", r.t_s, o_up).colour = eval::palette_colour(2);
+    p.add("", r.t_s, o_down).colour = eval::palette_colour(2);
+    p.add("+-1 ms target", ends, {1.0, 1.0}).colour = eval::Rgb{0, 0, 0};
+    p.add("", ends, {-1.0, -1.0}).colour = eval::Rgb{0, 0, 0};
+    panels.push_back(std::move(p));
+  }
+  if (!csv) throw InputError(csv_path.string() + ": could not be written");
+  if (!panels.empty()) eval::write_png(dir / "time_offset.png", eval::render_stacked(panels));
+  std::cout << "  wrote " << (dir / "time_offset.png").string() << " and " << csv_path.string()
+            << "\n";
+}
 
 // The online time offset in simulation: each offset on the same flights and noise as the
 // zero-offset run, how soon t_d is within 1 ms for good, and the fused error against that run.
@@ -75,6 +134,8 @@ void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const Interrup
             << (sim.vo_keyframes ? ", keyframe odometry " : ", frame-to-frame odometry ")
             << 100.0 * sim.vo_sigma_p_m << " cm / " << sim.vo_sigma_rot_deg << " deg"
             << "; targets: within 1 ms in 10 s, fused error within 10 % of the zero-offset run)\n";
+  std::vector<lab::TimeOffsetRun> plotted;
+  std::vector<int> plotted_flights;
   for (const double ms : a.time_offsets_ms) {
     int converged = 0, within10 = 0, within10_after = 0;
     double worst_conv = 0.0;
@@ -84,6 +145,10 @@ void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const Interrup
       const auto seed = a.seed + static_cast<std::uint64_t>(f);
       const auto r = lab::time_offset_run(sim, o, 1e-3 * ms, seed);
       const auto r0 = lab::time_offset_run(sim, o, 0.0, seed);
+      if (!a.plot_dir.empty()) {
+        plotted.push_back(r);
+        plotted_flights.push_back(static_cast<int>(seed));
+      }
       const double ratio = r.fused_rmse_m / r0.fused_rmse_m;
       const double ratio_after = r.fused_rmse_after_m / r0.fused_rmse_after_m;
       const bool conv = r.converged_after_s >= 0.0 && r.converged_after_s <= 10.0;
@@ -116,9 +181,20 @@ void print_time_offset_runs(const FuseEvalArgs& a, bool estimate, const Interrup
               << " ms: even that oracle is within 1 ms at 10 s with probability "
               << within_1ms(worst_oracle10) << " to " << within_1ms(best_oracle10) << "\n";
   }
+  if (!a.plot_dir.empty() && !interrupt.requested()) {
+    std::ostringstream setting;
+    setting << (sim.vo_keyframes ? "keyframe" : "frame-to-frame") << " odometry "
+            << 100.0 * sim.vo_sigma_p_m << " cm / " << sim.vo_sigma_rot_deg << " deg";
+    write_time_offset_plots(a.plot_dir, plotted, plotted_flights, setting.str());
+  }
 }
 
 void run_fuse_eval(const FuseEvalArgs& a) {
+  if (!a.plot_dir.empty()) {
+    if (a.skip_sim)
+      throw InputError("--plot-dir: the plots are of the simulated runs; drop --skip-sim");
+    io::claim_output_dir(a.plot_dir, "lab fuse-eval", a.force);  // before the work, not after
+  }
   fs::path data = a.data_dir;
   if (data.empty()) {
     const char* env = std::getenv("KESTREL_DATA_DIR");
@@ -302,6 +378,10 @@ void add_fuse_eval_command(CLI::App& lab) {
                   "simulated odometry: noise per relative pose and axis, rotation [deg]")
       ->capture_default_str()
       ->check(number_in(1e-4, 30.0, "a standard deviation in [1e-4, 30] deg"));
+  cmd->add_option("--plot-dir", a->plot_dir,
+                  "write time_offset.png (t_d error against the filter's and the oracle's 1-sigma, "
+                  "first flight per offset) and time_offset.csv (every run) into this folder");
+  cmd->add_flag("--force", a->force, "write into a --plot-dir that holds other files");
   cmd->add_option("--imu-walk-scale", a->imu_walk_scale,
                   "multiply the IMU bias random walks of imu0/sensor.yaml")
       ->capture_default_str()
