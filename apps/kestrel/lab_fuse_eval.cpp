@@ -264,7 +264,7 @@ void run_fuse_eval(const FuseEvalArgs& a) {
         v1_01.push_back(lab::run_v1_01(data / "euroc" / "V1_01_easy_part1", options, eo));
         if (k == 0) std::cout << lab::format_result(v1_01.front());
       }
-      if (a.seeds > 1) progress.update(static_cast<std::size_t>(k + 1));
+      if (a.seeds > 1) progress.update(static_cast<std::size_t>(k) + 1);
     }
     progress.finish();
     if (a.seeds > 1) {
