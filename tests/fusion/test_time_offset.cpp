@@ -82,7 +82,7 @@ TEST(TimeOffset, NotEstimatedItStaysFixed) {
 // The initial clone is taken before any IMU reading: its rate comes from the first reading
 // (bias removed), not from the initial state's zero, and a later clone keeps its own rate.
 // With a zero rate the t_d column of every measurement against the first keyframe read the full
-// rate, and the filter claimed up to 2.5x the information the measurements carry.
+// rate, and the filter's t_d 1-sigma fell to 0.40x of what the measurements allow.
 TEST(TimeOffset, TheInitialClonesRateIsTheFirstReadings) {
   NominalState x;
   x.gyro_bias_rad_s = Vector3d(0.01, 0.0, -0.02);
