@@ -4,29 +4,14 @@
 
 #include <string>
 
-#include "run_cli.hpp"
-#include "test_data.hpp"
+#include "cli_test.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using kestrel::test::RunResult;
 
-class CliGroups : public ::testing::Test {
- protected:
-  void SetUp() override {
-    ASSERT_TRUE(fs::exists(KESTREL_BINARY))
-        << KESTREL_BINARY << " not found: build the `kestrel` target first";
-    dir_ = kestrel::test::fresh_temp_dir("cli_groups");
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  RunResult run(const std::string& arguments) const {
-    return kestrel::test::run_kestrel(dir_, arguments);
-  }
-
-  fs::path dir_;
-};
+using CliGroups = kestrel::test::CliTest;
 
 // The text between a heading line "NAME:" and the next blank line.
 std::string section(const std::string& help, const std::string& heading) {

@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "run_cli.hpp"
+#include "cli_test.hpp"
 #include "test_data.hpp"
 
 namespace {
@@ -20,19 +20,8 @@ using kestrel::test::quoted;
 using kestrel::test::RunResult;
 using kestrel::test::slurp;
 
-class CmdEvaluate : public ::testing::Test {
+class CmdEvaluate : public kestrel::test::CliTest {
  protected:
-  void SetUp() override {
-    ASSERT_TRUE(fs::exists(KESTREL_BINARY))
-        << KESTREL_BINARY << " not found: build the `kestrel` target first";
-    dir_ = kestrel::test::fresh_temp_dir("cmd_evaluate");
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  RunResult run(const std::string& arguments) const {
-    return kestrel::test::run_kestrel(dir_, arguments);
-  }
-
   static std::string reference(const std::string& name) {
     return quoted(
         (kestrel::test::shared_data_dir() / "tum/reference_trajectories" / name).string());
@@ -41,8 +30,6 @@ class CmdEvaluate : public ::testing::Test {
     return "evaluate --gt " + reference("freiburg1_xyz-groundtruth.txt") + " --est " +
            reference("freiburg1_xyz-rgbdslam.txt");
   }
-
-  fs::path dir_;
 };
 
 TEST_F(CmdEvaluate, LastLineReproducesTheTumScriptsOnTheReferencePair) {

@@ -4,7 +4,7 @@
 
 #include <fstream>
 
-#include "run_cli.hpp"
+#include "cli_test.hpp"
 #include "test_data.hpp"
 
 namespace {
@@ -13,20 +13,9 @@ namespace fs = std::filesystem;
 using kestrel::test::quoted;
 using kestrel::test::RunResult;
 
-class CmdFly : public ::testing::Test {
+class CmdFly : public kestrel::test::CliTest {
  protected:
-  void SetUp() override {
-    ASSERT_TRUE(fs::exists(KESTREL_BINARY))
-        << KESTREL_BINARY << " not found: build the `kestrel` target first";
-    dir_ = kestrel::test::fresh_temp_dir("cmd_fly");
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  RunResult run(const std::string& arguments) const {
-    return kestrel::test::run_kestrel(dir_, arguments);
-  }
   std::string out(const std::string& name) const { return quoted((dir_ / name).string()); }
-
-  fs::path dir_;
 };
 
 TEST_F(CmdFly, ShortHoverWritesLogPlotsAndSummary) {

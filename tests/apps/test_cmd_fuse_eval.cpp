@@ -6,8 +6,7 @@
 #include <fstream>
 #include <string>
 
-#include "run_cli.hpp"
-#include "test_data.hpp"
+#include "cli_test.hpp"
 
 namespace {
 
@@ -15,21 +14,7 @@ namespace fs = std::filesystem;
 using kestrel::test::quoted;
 using kestrel::test::RunResult;
 
-class CmdFuseEval : public ::testing::Test {
- protected:
-  void SetUp() override {
-    ASSERT_TRUE(fs::exists(KESTREL_BINARY))
-        << KESTREL_BINARY << " not found: build the `kestrel` target first";
-    dir_ = kestrel::test::fresh_temp_dir("cmd_fuse_eval");
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  RunResult run(const std::string& arguments) const {
-    return kestrel::test::run_kestrel(dir_, arguments);
-  }
-
-  fs::path dir_;
-};
+using CmdFuseEval = kestrel::test::CliTest;
 
 // Short simulated runs only (no EuRoC data needed: --skip-real; a --data folder is still named).
 const std::string kQuick =

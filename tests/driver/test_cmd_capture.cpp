@@ -6,8 +6,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
+#include "cli_test.hpp"
 #include "kestrel/driver/v4l2_camera.hpp"
-#include "run_cli.hpp"
 #include "stereo_test_frames.hpp"
 #include "test_data.hpp"
 
@@ -17,20 +17,9 @@ namespace fs = std::filesystem;
 using kestrel::test::quoted;
 using kestrel::test::RunResult;
 
-class CmdCapture : public ::testing::Test {
+class CmdCapture : public kestrel::test::CliTest {
  protected:
-  void SetUp() override {
-    ASSERT_TRUE(fs::exists(KESTREL_BINARY))
-        << KESTREL_BINARY << " not found: build the `kestrel` target first";
-    dir_ = kestrel::test::fresh_temp_dir("cmd_capture");
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  RunResult run(const std::string& arguments) const {
-    return kestrel::test::run_kestrel(dir_, arguments);
-  }
   std::string path(const std::string& name) const { return quoted((dir_ / name).string()); }
-
-  fs::path dir_;
 };
 
 TEST_F(CmdCapture, ListNamesEveryVideoNodeOrSaysThereIsNone) {
