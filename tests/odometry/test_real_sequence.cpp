@@ -58,18 +58,27 @@ SequenceRun track_sequence(const std::string& folder, const char* camera) {
   return run;
 }
 
+// Bounds of a sequence's regression: RPE m/s and deg/s, ATE m, and no failed frame.
+struct AccuracyBounds {
+  double rpe_m_s = 0.0, rpe_deg_s = 0.0, ate_m = 0.0;
+};
+
+void expect_within(const SequenceRun& run, const AccuracyBounds& bounds) {
+  EXPECT_LE(run.e.rpe.trans_rmse_m_s(), bounds.rpe_m_s);
+  EXPECT_LE(run.e.rpe.rot_rmse_deg_s(), bounds.rpe_deg_s);
+  EXPECT_LE(run.e.ate.stats_m.rmse, bounds.ate_m);
+  EXPECT_EQ(run.failures, 0);
+}
+
 TEST(RealSequence, Freiburg1RpyPart1AccuracyRegression) {
   KESTREL_REQUIRE_DATA("tum/rgbd_dataset_freiburg1_rpy_part1");
   if (!long_tests_wanted()) {
     GTEST_SKIP() << "debug or sanitizer build: set KESTREL_LONG_TESTS=1 to run this regression";
   }
-  const SequenceRun run = track_sequence("tum/rgbd_dataset_freiburg1_rpy_part1", "fr1");
-  // Issue 26's targets; ATE and RPE also below the best peer's (RgbdICPOdometry 0.0441 m,
-  // 0.0444 m/s, 2.036 deg/s).
-  EXPECT_LE(run.e.rpe.trans_rmse_m_s(), 0.025);
-  EXPECT_LE(run.e.rpe.rot_rmse_deg_s(), 1.8);
-  EXPECT_LE(run.e.ate.stats_m.rmse, 0.0441);
-  EXPECT_EQ(run.failures, 0);
+  // Issue 26's targets; ATE also below the best peer's (RgbdICPOdometry 0.0441 m, 0.0444 m/s,
+  // 2.036 deg/s).
+  expect_within(track_sequence("tum/rgbd_dataset_freiburg1_rpy_part1", "fr1"),
+                {.rpe_m_s = 0.025, .rpe_deg_s = 1.8, .ate_m = 0.0441});
 }
 
 TEST(RealSequence, Freiburg3TeddyPart1AccuracyRegression) {
@@ -77,13 +86,10 @@ TEST(RealSequence, Freiburg3TeddyPart1AccuracyRegression) {
   if (!long_tests_wanted()) {
     GTEST_SKIP() << "debug or sanitizer build: set KESTREL_LONG_TESTS=1 to run this regression";
   }
-  const SequenceRun run = track_sequence("tum/rgbd_dataset_freiburg3_teddy_part1", "fr3");
   // At most the best peer's figures on this sequence (RgbdOdometry: ATE 0.0109 m, RPE 0.0172
   // m/s, 1.214 deg/s).
-  EXPECT_LE(run.e.rpe.trans_rmse_m_s(), 0.0172);
-  EXPECT_LE(run.e.rpe.rot_rmse_deg_s(), 1.214);
-  EXPECT_LE(run.e.ate.stats_m.rmse, 0.0109);
-  EXPECT_EQ(run.failures, 0);
+  expect_within(track_sequence("tum/rgbd_dataset_freiburg3_teddy_part1", "fr3"),
+                {.rpe_m_s = 0.0172, .rpe_deg_s = 1.214, .ate_m = 0.0109});
 }
 
 }  // namespace
